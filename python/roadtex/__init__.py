@@ -1,0 +1,15 @@
+"""roadtex: how a tyre's rubber envelops a measured road texture profile.
+
+The periodic INRETS contact model (Klein & Hamet) solved in Rust; SI units throughout.
+
+>>> import numpy as np, roadtex
+>>> z = 1e-4 * np.cos(2 * np.pi * np.arange(1024) / 1024)
+>>> r = roadtex.contact(z, dx=1e-5, youngs_modulus=2.5e6, mean_pressure=2e5)
+>>> bool(abs(r.pressure.mean() / 2e5 - 1) < 1e-12)
+True
+"""
+
+from roadtex._core import __version__
+from roadtex.contact import ContactBatch, ContactResult, ConvergenceError, contact, contact_many
+
+__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "contact_many", "__version__"]

@@ -1,0 +1,239 @@
+"""Tyre/road contact on a line profile: the public solver API and its result types.
+
+Units are SI: heights and dx in metres, moduli and pressures in pascals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator, Literal, Sequence
+
+import numpy as np
+
+from roadtex import _core
+
+Kernel = Literal["element", "spectral"]
+Method = Literal["cg", "direct"]
+
+
+class ConvergenceError(RuntimeError):
+    """The solver stopped at ``max_iterations`` before reaching ``tol``."""
+
+
+@dataclass(frozen=True)
+class ContactResult:
+    """One solved contact problem.
+
+    Attributes:
+        heights: the road profile z (m), as given.
+        dx: element width (m).
+        pressure: element pressures p (Pa), >= 0, mean equal to ``mean_pressure``.
+        envelope: the rubber surface, the enveloped profile (m): >= heights, == heights on contact.
+        iterations: solver iterations (CG steps; active-set sweeps for ``method="direct"``).
+        residual: the achieved residual: the worst open gap on the contact set or penetration
+            off it, relative to the profile's peak-to-valley height.
+        converged: whether ``residual <= tol``.
+        youngs_modulus, poisson, mean_pressure: the rubber and load (Pa, -, Pa).
+    """
+
+    heights: np.ndarray
+    dx: float
+    pressure: np.ndarray
+    envelope: np.ndarray
+    iterations: int
+    residual: float
+    converged: bool
+    youngs_modulus: float
+    poisson: float
+    mean_pressure: float
+
+    @property
+    def in_contact(self) -> np.ndarray:
+        """Boolean mask of elements carrying pressure."""
+        return self.pressure > 0.0
+
+    @property
+    def contact_fraction(self) -> float:
+        """Share of the sample length in contact (0..1)."""
+        return float(np.count_nonzero(self.pressure > 0.0) / self.pressure.size)
+
+    @property
+    def depth_below_envelope(self) -> np.ndarray:
+        """envelope - heights (m): how far the rubber stays above the road, 0 on contact."""
+        return self.envelope - self.heights
+
+    @property
+    def plane_strain_modulus(self) -> float:
+        """E* = E / (1 - nu^2) (Pa)."""
+        return self.youngs_modulus / (1.0 - self.poisson**2)
+
+
+@dataclass(frozen=True)
+class ContactBatch:
+    """Results of :func:`contact_many`, indexed ``[segment, modulus]``.
+
+    Array attributes have shape (segments, moduli, points) or (segments, moduli).
+    """
+
+    heights: np.ndarray
+    dx: float
+    youngs_moduli: np.ndarray
+    poisson: float
+    mean_pressure: float
+    pressure: np.ndarray
+    envelope: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    converged: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(number of segments, number of moduli)."""
+        return (self.pressure.shape[0], self.pressure.shape[1])
+
+    def __len__(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    def __getitem__(self, index: tuple[int, int]) -> ContactResult:
+        segment, modulus = index
+        return ContactResult(
+            heights=self.heights[segment],
+            dx=self.dx,
+            pressure=self.pressure[segment, modulus],
+            envelope=self.envelope[segment, modulus],
+            iterations=int(self.iterations[segment, modulus]),
+            residual=float(self.residual[segment, modulus]),
+            converged=bool(self.converged[segment, modulus]),
+            youngs_modulus=float(self.youngs_moduli[modulus]),
+            poisson=self.poisson,
+            mean_pressure=self.mean_pressure,
+        )
+
+    def __iter__(self) -> Iterator[ContactResult]:
+        """Results segment by segment, each segment for every modulus in the order given."""
+        for segment in range(self.shape[0]):
+            for modulus in range(self.shape[1]):
+                yield self[segment, modulus]
+
+
+def _as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
+    try:
+        array = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric: {exc}") from None
+    if array.ndim != ndim:
+        expected = "a 1-D array (one profile)" if ndim == 1 else "a 2-D array (one segment per row)"
+        raise ValueError(f"{name} must be {expected}, got an array of shape {array.shape}")
+    return np.ascontiguousarray(array)
+
+
+def _scalar(value: object, name: str) -> float:
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+
+
+def contact(
+    heights: np.ndarray | Sequence[float],
+    dx: float,
+    youngs_modulus: float,
+    mean_pressure: float,
+    *,
+    poisson: float = 0.5,
+    periodic: bool = True,
+    kernel: Kernel = "element",
+    method: Method = "cg",
+    tol: float = 1e-10,
+    max_iterations: int = 2000,
+    raise_on_nonconvergence: bool = True,
+) -> ContactResult:
+    """Presses an elastic half-space (the tyre rubber) onto a rigid road profile.
+
+    Args:
+        heights: profile heights z (m), positive up, on N >= 8 equal elements.
+        dx: element width (m); the sample length is L = N dx.
+        youngs_modulus: E of the rubber (Pa), e.g. 2.5e6.
+        mean_pressure: P, the mean contact pressure over L (Pa), e.g. 2e5.
+        poisson: nu in (-1, 0.5]; E* = E / (1 - nu^2).
+        periodic: True (default) repeats the sample infinitely (the INRETS periodic model);
+            False treats it as a finite sample (edge over-pressures).
+        kernel: "element" (exact influence coefficients of piecewise-constant pressure) or
+            "spectral" (the continuous kernel 2 / (E* |k|) at the discrete wavenumbers).
+        method: "cg" (preconditioned constrained conjugate gradients, any N) or "direct"
+            (dense active-set solve, N <= 8192, the independent check).
+        tol: stop when the worst open gap on the contact set and the worst penetration off it
+            are both at most ``tol`` times the profile's peak-to-valley height.
+        max_iterations: cap on solver iterations.
+        raise_on_nonconvergence: raise :class:`ConvergenceError` when ``tol`` is not reached
+            (default); with False the result is returned with ``converged=False``.
+
+    Returns:
+        A :class:`ContactResult`.
+
+    Raises:
+        ValueError: bad input, with the argument and the problem named.
+        ConvergenceError: see ``raise_on_nonconvergence``.
+    """
+    z = _as_float_array(heights, "heights", 1)
+    dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
+                            _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
+    pressure, envelope, iterations, residual, converged = _core.solve(
+        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, float(tol), int(max_iterations)
+    )
+    if raise_on_nonconvergence and not converged:
+        raise ConvergenceError(
+            f"contact solver stopped after {iterations} iterations at residual {residual:.3g} > tol {tol:g}; "
+            "raise max_iterations or tol, or pass raise_on_nonconvergence=False"
+        )
+    return ContactResult(z, dx_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
+
+
+def contact_many(
+    segments: np.ndarray | Sequence[Sequence[float]],
+    dx: float,
+    youngs_modulus: float | Sequence[float] | np.ndarray,
+    mean_pressure: float,
+    *,
+    poisson: float = 0.5,
+    periodic: bool = True,
+    kernel: Kernel = "element",
+    method: Method = "cg",
+    tol: float = 1e-10,
+    max_iterations: int = 2000,
+    threads: int | None = None,
+    raise_on_nonconvergence: bool = True,
+) -> ContactBatch:
+    """Solves :func:`contact` for every segment (row) and every modulus, in parallel.
+
+    The kernel and FFT plans are built once; the (segment, modulus) problems run on a Rust thread
+    pool with the GIL released. Each result is bitwise identical to a one-by-one :func:`contact`
+    call, whatever the thread count.
+
+    Args:
+        segments: 2-D array of heights (m), one segment of N points per row.
+        youngs_modulus: one E or a sequence of E values (Pa).
+        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS).
+        Other arguments: as for :func:`contact`.
+
+    Returns:
+        A :class:`ContactBatch` indexed ``[segment, modulus]``.
+    """
+    heights = _as_float_array(segments, "segments", 2)
+    moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
+    if moduli.ndim != 1:
+        raise ValueError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
+    if threads is not None and int(threads) < 1:
+        raise ValueError(f"threads must be at least 1, got {threads}")
+    dx_f, p_f, nu_f = _scalar(dx, "dx"), _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson")
+    pressure, envelope, iterations, residual, converged = _core.solve_many(
+        heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
+        float(tol), int(max_iterations), None if threads is None else int(threads),
+    )
+    if raise_on_nonconvergence and not converged.all():
+        bad = np.argwhere(~converged)
+        raise ConvergenceError(
+            f"{len(bad)} of {converged.size} problems did not reach tol {tol:g} "
+            f"(first: segment {bad[0][0]}, modulus {moduli[bad[0][1]]:g} Pa, residual {residual[tuple(bad[0])]:.3g})"
+        )
+    return ContactBatch(heights, dx_f, moduli, nu_f, p_f, pressure, envelope, iterations, residual, converged)

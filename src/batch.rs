@@ -1,0 +1,72 @@
+//! Many segments, many moduli: one kernel and one set of FFT plans for all, the (segment, modulus)
+//! problems solved in parallel with rayon. Every problem is solved by the same sequential code as a
+//! one-by-one call, so results are bitwise identical whatever the thread count.
+
+use rayon::prelude::*;
+
+use crate::error::{invalid, ContactError, Result};
+use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, SolverOptions};
+
+/// Segments of equal length N, stored row after row.
+#[derive(Clone, Copy, Debug)]
+pub struct Segments<'a> {
+    pub heights: &'a [f64],
+    pub len: usize,
+}
+
+impl Segments<'_> {
+    pub fn count(&self) -> usize {
+        self.heights.len() / self.len
+    }
+
+    pub fn row(&self, i: usize) -> &[f64] {
+        &self.heights[i * self.len..(i + 1) * self.len]
+    }
+}
+
+/// Solves every (segment, modulus) pair; results are ordered segment-major: index
+/// `segment * moduli.len() + modulus`. `threads = None` uses rayon's global pool.
+pub fn solve_many(
+    segments: Segments<'_>,
+    dx: f64,
+    youngs_moduli: &[f64],
+    poisson: f64,
+    mean_pressure: f64,
+    options: SolverOptions,
+    threads: Option<usize>,
+) -> Result<Vec<ContactSolution>> {
+    if segments.len == 0 || segments.heights.is_empty() {
+        return invalid("segments is empty: give a 2-D array with one profile per row");
+    }
+    if segments.heights.len() % segments.len != 0 {
+        return invalid("segments must hold whole rows of equal length");
+    }
+    if youngs_moduli.is_empty() {
+        return invalid("youngs_modulus is empty: give one or more moduli in pascals");
+    }
+    let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
+    for s in 0..segments.count() {
+        validate_problem(segments.row(s), dx, mean_pressure)
+            .map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
+    }
+    let solver = ContactSolver::new(segments.len, dx, options)?;
+    let jobs = segments.count() * materials.len();
+    let run = || {
+        (0..jobs)
+            .into_par_iter()
+            .map(|job| {
+                let (s, m) = (job / materials.len(), job % materials.len());
+                solver.solve(segments.row(s), materials[m], mean_pressure)
+            })
+            .collect::<Result<Vec<_>>>()
+    };
+    match threads {
+        None => run(),
+        Some(0) => invalid("threads must be at least 1"),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| ContactError::InvalidInput(format!("cannot start {t} threads: {e}")))?
+            .install(run),
+    }
+}

@@ -1,0 +1,216 @@
+//! Influence coefficients of the elastic half-space (plane strain) for piecewise-constant pressure
+//! on N equal elements, displacement taken at element centres, and their fast application.
+//!
+//! Everything here is for a unit plane-strain modulus E* = 1: displacements scale as 1/E*, so one
+//! kernel serves every modulus (the solvers work with pressure / E*).
+//!
+//! Periodic model. The point-force Green's function -2/(pi E*) ln|x| summed over the images x - nL
+//! is, up to a constant, G(x) = -2/(pi E*) ln|2 sin(pi x / L)| = (2 / (pi E*)) sum_m cos(2 pi m x/L) / m.
+//! Its integral over an element is a difference of Clausen functions, and the discrete spectrum of
+//! the (circulant) coefficient matrix is an aliased sum that closes in trigamma functions:
+//!
+//!   lambda_q = L sin(pi u) / (pi^2 E* N) * (f(u) + f(1 - u)),  u = q / N,
+//!   f(u) = sum_{j>=0} (-1)^j / (u + j)^2 = (psi'(u/2) - psi'((u+1)/2)) / 4,   lambda_0 = 0.
+//!
+//! Both are exact to rounding; no image sum is truncated. lambda_0 = 0 says that a uniform pressure
+//! moves the surface rigidly: the mean mode is fixed by equilibrium, not by the kernel.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use realfft::num_complex::Complex;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+
+use crate::special::{alternating_inverse_squares, clausen2};
+
+/// Which discrete kernel represents the half-space.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelKind {
+    /// Exact influence coefficients of piecewise-constant pressure on elements (the INRETS model).
+    Element,
+    /// The continuous spectral kernel 2 / (E* |k|) sampled at the discrete wavenumbers.
+    Spectral,
+}
+
+/// Periodic element influence coefficients C_n (m per unit pressure / E*), n = 0..N-1 circularly:
+/// the displacement at the centre of element i due to unit pressure on element j is C_{(i-j) mod N}.
+/// Built from Clausen functions in real space; used by the dense solver and to cross-check the
+/// spectral construction.
+pub fn periodic_coefficients(n: usize, dx: f64) -> Vec<f64> {
+    let length = n as f64 * dx;
+    let scale = length / (PI * PI);
+    let step = 2.0 * PI / n as f64;
+    (0..n)
+        .map(|k| {
+            // Symmetric index keeps the arguments small, where Cl2 is evaluated most accurately.
+            let m = if k <= n / 2 { k as f64 } else { k as f64 - n as f64 };
+            scale * (clausen2(step * (m + 0.5)) - clausen2(step * (m - 0.5)))
+        })
+        .collect()
+}
+
+/// Eigenvalues lambda_q, q = 0..=N/2, of the periodic circulant kernel (m per unit pressure / E*).
+pub fn periodic_spectrum(n: usize, dx: f64, kind: KernelKind) -> Vec<f64> {
+    let length = n as f64 * dx;
+    (0..=n / 2)
+        .map(|q| {
+            if q == 0 {
+                return 0.0;
+            }
+            match kind {
+                KernelKind::Element => {
+                    let u = q as f64 / n as f64;
+                    let aliased = alternating_inverse_squares(u) + alternating_inverse_squares(1.0 - u);
+                    length * (PI * u).sin() / (PI * PI * n as f64) * aliased
+                }
+                KernelKind::Spectral => {
+                    let k = 2.0 * PI * q as f64 / length;
+                    2.0 / k
+                }
+            }
+        })
+        .collect()
+}
+
+/// Non-periodic (finite sample) element coefficients c_m, m = 0..N-1, for |i - j| = m: the
+/// integral of -2/pi ln|x| over an element, up to the arbitrary constant of the 2-D half-space
+/// (which the rigid approach absorbs).
+pub fn finite_coefficients(n: usize, dx: f64) -> Vec<f64> {
+    // -2/pi [ (x ln|x| - x) ] from (m - 1/2) dx to (m + 1/2) dx, written in dx units plus dx ln dx.
+    let antiderivative = |s: f64| if s == 0.0 { 0.0 } else { s * s.abs().ln() - s };
+    (0..n)
+        .map(|m| {
+            let m = m as f64;
+            let in_units = if m < 8.0 {
+                antiderivative(m + 0.5) - antiderivative(m - 0.5)
+            } else {
+                // Taylor series of the same difference about m, free of cancellation far away:
+                // ln m - 1/(24 m^2) - 1/(320 m^4) - 1/(2688 m^6) - 1/(18432 m^8) - 1/(112640 m^10).
+                let inv2 = 1.0 / (m * m);
+                m.ln()
+                    - inv2
+                        * (1.0 / 24.0
+                            + inv2 * (1.0 / 320.0 + inv2 * (1.0 / 2688.0 + inv2 * (1.0 / 18432.0 + inv2 / 112640.0))))
+            };
+            -2.0 / PI * dx * (in_units + dx.ln())
+        })
+        .collect()
+}
+
+/// A real circulant operator applied by real FFTs, with plans built once and shared by threads.
+/// Sizes need not be powers of two.
+#[derive(Clone)]
+pub struct Circulant {
+    n: usize,
+    forward: Arc<dyn RealToComplex<f64>>,
+    inverse: Arc<dyn ComplexToReal<f64>>,
+}
+
+/// Scratch buffers of one thread for [`Circulant`] products.
+pub struct CirculantScratch {
+    real: Vec<f64>,
+    spectrum: Vec<Complex<f64>>,
+    forward_scratch: Vec<Complex<f64>>,
+    inverse_scratch: Vec<Complex<f64>>,
+}
+
+impl Circulant {
+    pub fn new(n: usize) -> Self {
+        let mut planner = RealFftPlanner::<f64>::new();
+        Self { n, forward: planner.plan_fft_forward(n), inverse: planner.plan_fft_inverse(n) }
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    pub fn scratch(&self) -> CirculantScratch {
+        CirculantScratch {
+            real: vec![0.0; self.n],
+            spectrum: self.forward.make_output_vec(),
+            forward_scratch: self.forward.make_scratch_vec(),
+            inverse_scratch: self.inverse.make_scratch_vec(),
+        }
+    }
+
+    /// out = circulant(multiplier) * input, where `multiplier` holds the N/2+1 real eigenvalues.
+    pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], scratch: &mut CirculantScratch) {
+        debug_assert_eq!(input.len(), self.n);
+        debug_assert_eq!(multiplier.len(), self.n / 2 + 1);
+        scratch.real.copy_from_slice(input);
+        self.forward
+            .process_with_scratch(&mut scratch.real, &mut scratch.spectrum, &mut scratch.forward_scratch)
+            .expect("buffer sizes are fixed by the plan");
+        let norm = 1.0 / self.n as f64;
+        for (c, &m) in scratch.spectrum.iter_mut().zip(multiplier) {
+            *c *= m * norm;
+        }
+        // The inverse real transform requires exactly real end bins; rounding must not trip it.
+        scratch.spectrum[0].im = 0.0;
+        if self.n % 2 == 0 {
+            scratch.spectrum[self.n / 2].im = 0.0;
+        }
+        self.inverse
+            .process_with_scratch(&mut scratch.spectrum, out, &mut scratch.inverse_scratch)
+            .expect("buffer sizes are fixed by the plan");
+    }
+
+    /// Eigenvalues of the circulant matrix whose first column is `column` (real, symmetric).
+    pub fn spectrum_of(&self, column: &[f64]) -> Vec<f64> {
+        let mut scratch = self.scratch();
+        scratch.real.copy_from_slice(column);
+        self.forward
+            .process_with_scratch(&mut scratch.real, &mut scratch.spectrum, &mut scratch.forward_scratch)
+            .expect("buffer sizes are fixed by the plan");
+        scratch.spectrum.iter().map(|c| c.re).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clausen_coefficients_and_trigamma_spectrum_agree() {
+        for &n in &[8usize, 9, 64, 1000, 4096, 7919] {
+            let dx = 1e-3;
+            let column = periodic_coefficients(n, dx);
+            let from_real_space = Circulant::new(n).spectrum_of(&column);
+            let closed_form = periodic_spectrum(n, dx, KernelKind::Element);
+            let scale = closed_form[1];
+            for q in 0..=n / 2 {
+                let err = (from_real_space[q] - closed_form[q]).abs() / scale;
+                assert!(err < 1e-11, "n={n} q={q} err={err}");
+            }
+        }
+    }
+
+    #[test]
+    fn element_spectrum_tends_to_continuous_kernel_at_long_wavelengths() {
+        let n = 4096;
+        let dx = 1e-4;
+        let element = periodic_spectrum(n, dx, KernelKind::Element);
+        let spectral = periodic_spectrum(n, dx, KernelKind::Spectral);
+        // Element averaging multiplies mode q by sinc(pi q / N) plus aliasing of order (q/N)^2.
+        let rel = (element[1] - spectral[1]).abs() / spectral[1];
+        assert!(rel < 1e-6, "rel={rel}");
+        assert!(element[n / 2] < spectral[n / 2]);
+    }
+
+    #[test]
+    fn finite_series_continues_exact_formula() {
+        let dx = 0.37;
+        let c = finite_coefficients(20, dx);
+        let exact = |m: f64| {
+            let a = |s: f64| s * s.abs().ln() - s;
+            -2.0 / PI * dx * (a(m + 0.5) - a(m - 0.5) + dx.ln())
+        };
+        for m in 8..20 {
+            assert!((c[m] - exact(m as f64)).abs() < 1e-13, "m={m}");
+        }
+    }
+}

@@ -1,0 +1,83 @@
+//! Dense direct solve of the same discrete contact problem, for small N: a primal-dual active-set
+//! loop whose every step solves the contact-set equations exactly with a Cholesky factor (faer).
+//!
+//! On a trial contact set A, with p = 0 off A:  C_AA p_A + h 1 = z_A,  sum p_A = N P.
+//! C_AA is only positive definite on zero-sum vectors (a uniform pressure moves the surface
+//! rigidly), so the factor is taken of C_AA + c 1 1^T, which changes h but not p. The loop drops
+//! points with p < 0, adds points that penetrate, and stops when A repeats.
+//!
+//! Independent of the CG path: it reads the real-space coefficients (Clausen functions), never the
+//! FFT spectrum, and shares only the residual definition.
+
+use faer::prelude::*;
+use faer::{Mat, Side};
+
+use super::{residual, Outcome};
+use crate::compliance::Compliance;
+use crate::error::{ContactError, Result};
+
+const MAX_SWEEPS: usize = 500;
+
+pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale: f64) -> Result<Outcome> {
+    let n = z.len();
+    let target_sum = mean_strain * n as f64;
+    let mut active: Vec<usize> = (0..n).collect();
+    let mut pressure = vec![0.0; n];
+    let mut gap = vec![0.0; n];
+    for sweep in 1..=MAX_SWEEPS {
+        let (p_active, approach) = solve_on_set(op, z, &active, target_sum)?;
+        pressure.fill(0.0);
+        for (&i, &pi) in active.iter().zip(&p_active) {
+            pressure[i] = pi;
+        }
+        for i in 0..n {
+            let u: f64 = active.iter().zip(&p_active).map(|(&j, &pj)| op.dense_entry(i, j) * pj).sum();
+            gap[i] = u + approach - z[i];
+        }
+        // Tolerance for "penetrates": rounding of the dense products, not a modelling choice.
+        let slack = 1e-13 * scale;
+        let next: Vec<usize> = (0..n)
+            .filter(|&i| {
+                let was_active = active.binary_search(&i).is_ok();
+                if was_active {
+                    pressure[i] > 0.0
+                } else {
+                    gap[i] < -slack
+                }
+            })
+            .collect();
+        if next == active {
+            let pressure_nonneg: Vec<f64> = pressure.iter().map(|&p| p.max(0.0)).collect();
+            let res = residual(&pressure_nonneg, &gap, scale);
+            return Ok(Outcome { pressure: pressure_nonneg, gap, iterations: sweep, residual: res, converged: true });
+        }
+        if next.is_empty() {
+            return Err(ContactError::DirectSolverFailed("the trial contact set became empty".into()));
+        }
+        active = next;
+    }
+    Err(ContactError::DirectSolverFailed(format!("the active set did not settle in {MAX_SWEEPS} sweeps")))
+}
+
+/// Pressures on `active` (p elsewhere 0) and the approach h solving C_AA p + h = z_A, sum p = S.
+fn solve_on_set<Op: Compliance>(op: &Op, z: &[f64], active: &[usize], target_sum: f64) -> Result<(Vec<f64>, f64)> {
+    let m = active.len();
+    let mut shift = op.dense_entry(0, 0).abs();
+    for _ in 0..60 {
+        let matrix = Mat::from_fn(m, m, |a, b| op.dense_entry(active[a], active[b]) + shift);
+        let Ok(factor) = matrix.llt(Side::Lower) else {
+            // The finite kernel is only conditionally positive definite: a larger shift fixes it.
+            shift *= 4.0;
+            continue;
+        };
+        let rhs = Mat::from_fn(m, 2, |a, col| if col == 0 { z[active[a]] } else { 1.0 });
+        let x = factor.solve(&rhs);
+        let sum_z: f64 = (0..m).map(|a| x[(a, 0)]).sum();
+        let sum_one: f64 = (0..m).map(|a| x[(a, 1)]).sum();
+        let shifted_approach = (sum_z - target_sum) / sum_one;
+        let p: Vec<f64> = (0..m).map(|a| x[(a, 0)] - shifted_approach * x[(a, 1)]).collect();
+        let approach = shifted_approach + shift * target_sum;
+        return Ok((p, approach));
+    }
+    Err(ContactError::DirectSolverFailed("no positive-definite shift of the contact-set matrix was found".into()))
+}

@@ -1,0 +1,269 @@
+//! Tyre/road contact solvers for a rigid road profile pressed into an elastic half-space under a
+//! prescribed mean pressure (load control).
+//!
+//! The discrete problem, with E* = E / (1 - nu^2), heights z (m), element pressures p (Pa) and the
+//! compliance C (m/Pa, E* = 1 scaled by 1/E*):
+//!
+//!   s = C p / E* + h          (rubber surface, h the rigid approach)
+//!   s >= z,  p >= 0,  p (s - z) = 0,  mean(p) = P.
+//!
+//! Two solvers: preconditioned constrained conjugate gradients ([`cg`]) for any N, and a dense
+//! active-set solve with Cholesky factors ([`direct`]) for small N, the independent check.
+
+pub mod cg;
+pub mod direct;
+
+use crate::compliance::{Compliance, FiniteCompliance, PeriodicCompliance};
+use crate::error::{invalid, Result};
+use crate::kernel::KernelKind;
+
+/// Fewest elements a profile may have: below this the discrete model says nothing useful.
+pub const MIN_ELEMENTS: usize = 8;
+/// Largest N accepted by the dense direct solver (its cost grows as N^3).
+pub const MAX_DIRECT_ELEMENTS: usize = 8192;
+
+/// The rubber: Young's modulus E (Pa) and Poisson ratio nu.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub youngs_modulus: f64,
+    pub poisson: f64,
+}
+
+impl Material {
+    pub fn new(youngs_modulus: f64, poisson: f64) -> Result<Self> {
+        if !(youngs_modulus.is_finite() && youngs_modulus > 0.0) {
+            return invalid(format!("youngs_modulus must be a positive finite number of pascals, got {youngs_modulus}"));
+        }
+        if !(poisson.is_finite() && poisson > -1.0 && poisson <= 0.5) {
+            return invalid(format!("poisson must lie in (-1, 0.5], got {poisson}"));
+        }
+        Ok(Self { youngs_modulus, poisson })
+    }
+
+    /// E* = E / (1 - nu^2), the plane-strain modulus (Pa).
+    pub fn plane_strain_modulus(&self) -> f64 {
+        self.youngs_modulus / (1.0 - self.poisson * self.poisson)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Preconditioned constrained conjugate gradients on the FFT-applied kernel.
+    ConjugateGradient,
+    /// Dense active-set solve with Cholesky factors; N <= MAX_DIRECT_ELEMENTS.
+    Direct,
+}
+
+/// How the problem is discretised and solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverOptions {
+    /// Periodic (INRETS, default) or finite-sample model.
+    pub periodic: bool,
+    pub kernel: KernelKind,
+    pub method: Method,
+    /// Stop when the residual (see [`residual`]) is at most `tol`.
+    pub tol: f64,
+    pub max_iterations: usize,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self { periodic: true, kernel: KernelKind::Element, method: Method::ConjugateGradient, tol: 1e-10, max_iterations: 2000 }
+    }
+}
+
+impl SolverOptions {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
+            return invalid(format!("tol must lie in (0, 1), got {}", self.tol));
+        }
+        if self.max_iterations == 0 {
+            return invalid("max_iterations must be at least 1");
+        }
+        if !self.periodic && self.kernel == KernelKind::Spectral {
+            return invalid("kernel='spectral' exists only for the periodic model (periodic=True)");
+        }
+        Ok(())
+    }
+}
+
+/// The solution of one contact problem, in SI units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactSolution {
+    /// Element pressures (Pa), >= 0, mean equal to the prescribed mean pressure.
+    pub pressure: Vec<f64>,
+    /// The rubber surface (m): >= heights, equal to them where in contact.
+    pub envelope: Vec<f64>,
+    /// Iterations the solver used (CG steps, or active-set sweeps for the direct solver).
+    pub iterations: usize,
+    /// The achieved residual, see [`residual`].
+    pub residual: f64,
+    pub converged: bool,
+}
+
+impl ContactSolution {
+    pub fn in_contact(&self) -> impl Iterator<Item = bool> + '_ {
+        self.pressure.iter().map(|&p| p > 0.0)
+    }
+}
+
+/// Convergence measure shared by all solvers, dimensionless:
+///
+///   residual = max( max_{p > 0} |s - z|,  max_{p = 0} max(0, z - s) ) / height_scale
+///
+/// i.e. the worst gap left open on the contact set and the worst penetration off it, relative to
+/// the profile's peak-to-valley height (or to P L / E* for a flat profile). Load balance is exact
+/// by construction in every solver and is not part of the measure.
+pub fn residual(pressure: &[f64], gap: &[f64], height_scale: f64) -> f64 {
+    let worst = pressure.iter().zip(gap).fold(0.0_f64, |worst, (&p, &g)| {
+        let violation = if p > 0.0 { g.abs() } else { (-g).max(0.0) };
+        worst.max(violation)
+    });
+    worst / height_scale
+}
+
+/// The height scale that makes [`residual`] dimensionless (m).
+pub fn height_scale(heights: &[f64], mean_pressure_over_modulus: f64, dx: f64) -> f64 {
+    let (lo, hi) = heights.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &z| (lo.min(z), hi.max(z)));
+    let load_scale = mean_pressure_over_modulus * dx * heights.len() as f64;
+    let range = hi - lo;
+    if range > 1e-9 * load_scale {
+        range
+    } else {
+        load_scale
+    }
+}
+
+/// Checks one profile and its load; the messages name the argument at fault.
+pub fn validate_problem(heights: &[f64], dx: f64, mean_pressure: f64) -> Result<()> {
+    if heights.is_empty() {
+        return invalid("heights is empty: a profile needs at least 8 points");
+    }
+    if heights.len() < MIN_ELEMENTS {
+        return invalid(format!("heights has {} points: a profile needs at least {MIN_ELEMENTS}", heights.len()));
+    }
+    if let Some(i) = heights.iter().position(|z| !z.is_finite()) {
+        return invalid(format!("heights contains a non-finite value ({}) at index {i}; interpolate drop-outs first", heights[i]));
+    }
+    if !(dx.is_finite() && dx > 0.0) {
+        return invalid(format!("dx must be a positive finite number of metres, got {dx}"));
+    }
+    if !(mean_pressure.is_finite() && mean_pressure > 0.0) {
+        return invalid(format!("mean_pressure must be a positive finite number of pascals, got {mean_pressure}"));
+    }
+    Ok(())
+}
+
+/// The solver for one (N, dx, model): builds the kernel and FFT plans once, then solves any number
+/// of profiles of that size, for any modulus, from any thread.
+pub struct ContactSolver {
+    n: usize,
+    dx: f64,
+    options: SolverOptions,
+    model: Model,
+}
+
+enum Model {
+    Periodic(PeriodicCompliance),
+    Finite(FiniteCompliance),
+}
+
+impl ContactSolver {
+    pub fn new(n: usize, dx: f64, options: SolverOptions) -> Result<Self> {
+        options.validate()?;
+        if n < MIN_ELEMENTS {
+            return invalid(format!("a profile needs at least {MIN_ELEMENTS} points, got {n}"));
+        }
+        if !(dx.is_finite() && dx > 0.0) {
+            return invalid(format!("dx must be a positive finite number of metres, got {dx}"));
+        }
+        if options.method == Method::Direct && n > MAX_DIRECT_ELEMENTS {
+            return invalid(format!(
+                "method='direct' is a dense check limited to {MAX_DIRECT_ELEMENTS} points (O(N^3)); got {n}: use method='cg'"
+            ));
+        }
+        let model = if options.periodic {
+            Model::Periodic(PeriodicCompliance::new(n, dx, options.kernel))
+        } else {
+            Model::Finite(FiniteCompliance::new(n, dx))
+        };
+        Ok(Self { n, dx, options, model })
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    pub fn options(&self) -> &SolverOptions {
+        &self.options
+    }
+
+    /// Solves one profile (heights in m) for one rubber under mean pressure (Pa).
+    pub fn solve(&self, heights: &[f64], material: Material, mean_pressure: f64) -> Result<ContactSolution> {
+        if heights.len() != self.n {
+            return invalid(format!("heights has {} points, the solver was built for {}", heights.len(), self.n));
+        }
+        validate_problem(heights, self.dx, mean_pressure)?;
+        match &self.model {
+            Model::Periodic(op) => self.solve_with(op, heights, material, mean_pressure),
+            Model::Finite(op) => self.solve_with(op, heights, material, mean_pressure),
+        }
+    }
+
+    fn solve_with<Op: Compliance>(
+        &self,
+        op: &Op,
+        heights: &[f64],
+        material: Material,
+        mean_pressure: f64,
+    ) -> Result<ContactSolution> {
+        let e_star = material.plane_strain_modulus();
+        // Work in pressure / E* (a strain) and in heights relative to the highest point, so that
+        // absolute offsets (a profile at 0.1 m) cost no digits.
+        let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let z: Vec<f64> = heights.iter().map(|&h| h - top).collect();
+        let strain = mean_pressure / e_star;
+        let scale = height_scale(&z, strain, self.dx);
+        let outcome = match self.options.method {
+            Method::ConjugateGradient if std::env::var("RT_AS").is_ok() => cg::solve_active_set(op, &z, strain, scale, self.options.tol, self.options.max_iterations),
+            Method::ConjugateGradient => cg::solve(op, &z, strain, scale, self.options.tol, self.options.max_iterations),
+            Method::Direct => direct::solve(op, &z, strain, scale)?,
+        };
+        let pressure = outcome.pressure.iter().map(|&q| q * e_star).collect();
+        let envelope = outcome
+            .gap
+            .iter()
+            .zip(heights)
+            .zip(&outcome.pressure)
+            // On contact the surface is the profile itself; the residual gap there is solver error.
+            .map(|((&g, &h), &q)| if q > 0.0 { h } else { h + g.max(0.0) })
+            .collect();
+        Ok(ContactSolution {
+            pressure,
+            envelope,
+            iterations: outcome.iterations,
+            residual: outcome.residual,
+            converged: outcome.converged,
+        })
+    }
+}
+
+/// What a solver returns, in pressure / E* units and heights relative to the top.
+pub(crate) struct Outcome {
+    pub pressure: Vec<f64>,
+    /// s - z: the gap between rubber surface and profile.
+    pub gap: Vec<f64>,
+    pub iterations: usize,
+    pub residual: f64,
+    pub converged: bool,
+}
+
+/// Solves one profile: builds a [`ContactSolver`] for it and calls it once.
+pub fn solve(heights: &[f64], dx: f64, material: Material, mean_pressure: f64, options: SolverOptions) -> Result<ContactSolution> {
+    validate_problem(heights, dx, mean_pressure)?;
+    ContactSolver::new(heights.len(), dx, options)?.solve(heights, material, mean_pressure)
+}
