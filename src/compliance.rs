@@ -12,9 +12,13 @@ pub trait Compliance: Sync {
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
     /// out ~ C^-1 * gap on zero-mean input: the inverse of the periodic kernel (|k| E* / 2 like).
     fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
-    /// Column m of the dense matrix, C[i][j] = column[|i - j|] (finite) or [(i - j) mod N]
-    /// (periodic); used by the dense solver.
-    fn dense_entry(&self, i: usize, j: usize) -> f64;
+    /// The coefficient for element offset d = i - j, -N < d < N: the dense matrix is
+    /// C[i][j] = kernel_at(i - j). Used by the dense solver and the coarse space of the CG solver.
+    fn kernel_at(&self, offset: isize) -> f64;
+
+    fn dense_entry(&self, i: usize, j: usize) -> f64 {
+        self.kernel_at(i as isize - j as isize)
+    }
 }
 
 /// The periodic (INRETS) model: a circulant operator.
@@ -83,9 +87,9 @@ impl Compliance for PeriodicCompliance {
         self.circulant.apply(&self.inverse_spectrum, gap, out, scratch);
     }
 
-    fn dense_entry(&self, i: usize, j: usize) -> f64 {
-        let n = self.circulant.len();
-        self.coefficients()[(i + n - j) % n]
+    fn kernel_at(&self, offset: isize) -> f64 {
+        let n = self.circulant.len() as isize;
+        self.coefficients()[offset.rem_euclid(n) as usize]
     }
 }
 
@@ -149,7 +153,7 @@ impl Compliance for FiniteCompliance {
         self.periodic.precondition(gap, out, &mut scratch.periodic);
     }
 
-    fn dense_entry(&self, i: usize, j: usize) -> f64 {
-        self.coefficients[i.abs_diff(j)]
+    fn kernel_at(&self, offset: isize) -> f64 {
+        self.coefficients[offset.unsigned_abs()]
     }
 }

@@ -137,6 +137,7 @@ mod tests {
         let n = 777;
         let dx = f.width / n as f64;
         let mean: f64 = (0..n).map(|i| f.element_pressure((i as f64 + 0.5) * dx, dx)).sum::<f64>() / n as f64;
-        assert!((mean / f.mean_pressure - 1.0).abs() < 1e-12);
+        // The end elements integrate a 1/sqrt singularity: an ulp of position costs 1e-8 of load.
+        assert!((mean / f.mean_pressure - 1.0).abs() < 1e-7, "{mean}");
     }
 }

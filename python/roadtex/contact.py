@@ -134,6 +134,12 @@ def _scalar(value: object, name: str) -> float:
         raise ValueError(f"{name} must be a number, got {value!r}") from None
 
 
+def _positive_int(value: object, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < 1:
+        raise ValueError(f"{name} must be at least 1 (a whole number), got {value!r}")
+    return int(value)
+
+
 def contact(
     heights: np.ndarray | Sequence[float],
     dx: float,
@@ -179,7 +185,8 @@ def contact(
     dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
                             _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
     pressure, envelope, iterations, residual, converged = _core.solve(
-        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, float(tol), int(max_iterations)
+        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, _scalar(tol, "tol"),
+        _positive_int(max_iterations, "max_iterations"),
     )
     if raise_on_nonconvergence and not converged:
         raise ConvergenceError(
@@ -223,12 +230,11 @@ def contact_many(
     moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
     if moduli.ndim != 1:
         raise ValueError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
-    if threads is not None and int(threads) < 1:
-        raise ValueError(f"threads must be at least 1, got {threads}")
+    threads = None if threads is None else _positive_int(threads, "threads")
     dx_f, p_f, nu_f = _scalar(dx, "dx"), _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson")
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
-        float(tol), int(max_iterations), None if threads is None else int(threads),
+        _scalar(tol, "tol"), _positive_int(max_iterations, "max_iterations"), threads,
     )
     if raise_on_nonconvergence and not converged.all():
         bad = np.argwhere(~converged)

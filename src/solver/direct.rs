@@ -59,7 +59,8 @@ pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale:
     Err(ContactError::DirectSolverFailed(format!("the active set did not settle in {MAX_SWEEPS} sweeps")))
 }
 
-/// Pressures on `active` (p elsewhere 0) and the approach h solving C_AA p + h = z_A, sum p = S.
+/// Pressures on `active` (p elsewhere 0) and the approach h solving C_AA p + h = z_A, sum p = S,
+/// with one step of iterative refinement (the dense products lose a few digits at N ~ 1000).
 fn solve_on_set<Op: Compliance>(op: &Op, z: &[f64], active: &[usize], target_sum: f64) -> Result<(Vec<f64>, f64)> {
     let m = active.len();
     let mut shift = op.dense_entry(0, 0).abs();
@@ -70,13 +71,25 @@ fn solve_on_set<Op: Compliance>(op: &Op, z: &[f64], active: &[usize], target_sum
             shift *= 4.0;
             continue;
         };
-        let rhs = Mat::from_fn(m, 2, |a, col| if col == 0 { z[active[a]] } else { 1.0 });
-        let x = factor.solve(&rhs);
-        let sum_z: f64 = (0..m).map(|a| x[(a, 0)]).sum();
-        let sum_one: f64 = (0..m).map(|a| x[(a, 1)]).sum();
-        let shifted_approach = (sum_z - target_sum) / sum_one;
-        let p: Vec<f64> = (0..m).map(|a| x[(a, 0)] - shifted_approach * x[(a, 1)]).collect();
-        let approach = shifted_approach + shift * target_sum;
+        // (C_AA + c 1 1^T) p = rhs - (h - c S) 1 with sum p = S, for a given right-hand side.
+        let saddle = |rhs: &dyn Fn(usize) -> f64, sum: f64| {
+            let x = factor.solve(Mat::from_fn(m, 2, |a, col| if col == 0 { rhs(a) } else { 1.0 }));
+            let sum_rhs: f64 = (0..m).map(|a| x[(a, 0)]).sum();
+            let sum_one: f64 = (0..m).map(|a| x[(a, 1)]).sum();
+            let shifted = (sum_rhs - sum) / sum_one;
+            let p: Vec<f64> = (0..m).map(|a| x[(a, 0)] - shifted * x[(a, 1)]).collect();
+            (p, shifted + shift * sum)
+        };
+        let (mut p, mut approach) = saddle(&|a| z[active[a]], target_sum);
+        let residual: Vec<f64> = (0..m)
+            .map(|a| {
+                let u: f64 = (0..m).map(|b| op.dense_entry(active[a], active[b]) * p[b]).sum();
+                z[active[a]] - u - approach
+            })
+            .collect();
+        let (dp, dh) = saddle(&|a| residual[a], 0.0);
+        p.iter_mut().zip(&dp).for_each(|(x, d)| *x += d);
+        approach += dh;
         return Ok((p, approach));
     }
     Err(ContactError::DirectSolverFailed("no positive-definite shift of the contact-set matrix was found".into()))

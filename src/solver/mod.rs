@@ -11,9 +11,11 @@
 //! active-set solve with Cholesky factors ([`direct`]) for small N, the independent check.
 
 pub mod cg;
+mod deflation;
 pub mod direct;
 
 use crate::compliance::{Compliance, FiniteCompliance, PeriodicCompliance};
+use deflation::PairSums;
 use crate::error::{invalid, Result};
 use crate::kernel::KernelKind;
 
@@ -161,6 +163,8 @@ pub struct ContactSolver {
     dx: f64,
     options: SolverOptions,
     model: Model,
+    /// Interval sums of the kernel for the CG solver's coarse space (None for the direct solver).
+    pair_sums: Option<PairSums>,
 }
 
 enum Model {
@@ -187,7 +191,11 @@ impl ContactSolver {
         } else {
             Model::Finite(FiniteCompliance::new(n, dx))
         };
-        Ok(Self { n, dx, options, model })
+        let pair_sums = (options.method == Method::ConjugateGradient).then(|| match &model {
+            Model::Periodic(op) => PairSums::new(n, |d| op.kernel_at(d)),
+            Model::Finite(op) => PairSums::new(n, |d| op.kernel_at(d)),
+        });
+        Ok(Self { n, dx, options, model, pair_sums })
     }
 
     pub fn len(&self) -> usize {
@@ -229,8 +237,10 @@ impl ContactSolver {
         let strain = mean_pressure / e_star;
         let scale = height_scale(&z, strain, self.dx);
         let outcome = match self.options.method {
-            Method::ConjugateGradient if std::env::var("RT_AS").is_ok() => cg::solve_active_set(op, &z, strain, scale, self.options.tol, self.options.max_iterations),
-            Method::ConjugateGradient => cg::solve(op, &z, strain, scale, self.options.tol, self.options.max_iterations),
+            Method::ConjugateGradient => {
+                let pair_sums = self.pair_sums.as_ref().expect("built for the CG method");
+                cg::solve(op, pair_sums, &z, strain, scale, self.options.tol, self.options.max_iterations)
+            }
             Method::Direct => direct::solve(op, &z, strain, scale)?,
         };
         let pressure = outcome.pressure.iter().map(|&q| q * e_star).collect();
