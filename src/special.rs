@@ -3,26 +3,34 @@
 
 use std::f64::consts::PI;
 
-/// Riemann zeta at even arguments 2, 4, ..., 60: the series of Cl2 near 0 needs them, and
-/// zeta(2k) - 1 < 1e-18 beyond 2k = 60, where 1.0 is exact in f64.
-fn zeta_even(k: usize) -> f64 {
-    const TABLE: [f64; 8] = [
-        1.644_934_066_848_226_4, // zeta(2)
-        1.082_323_233_711_138_2, // zeta(4)
-        1.017_343_061_984_449_1, // zeta(6)
-        1.004_077_356_197_944_3, // zeta(8)
-        1.000_994_575_127_818_1, // zeta(10)
-        1.000_246_086_553_308_0, // zeta(12)
-        1.000_061_248_135_058_7, // zeta(14)
-        1.000_015_282_259_408_7, // zeta(16)
-    ];
-    if k >= 1 && k <= TABLE.len() {
-        TABLE[k - 1]
-    } else {
-        // zeta(2k) = 1 + 2^-2k + 3^-2k + ...; three terms are exact to rounding for 2k >= 18.
-        let s = 2.0 * k as f64;
-        1.0 + 2f64.powf(-s) + 3f64.powf(-s) + 4f64.powf(-s)
-    }
+/// Terms of the Cl2 series near 0: zeta(2k) / (k (2k + 1)), k = 1..=40 (zeta(2k) - 1 < 1e-18
+/// beyond 2k = 60, where four terms of the zeta series are exact to rounding).
+fn clausen_series_coefficients() -> &'static [f64; 40] {
+    static TABLE: std::sync::OnceLock<[f64; 40]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        const ZETA_EVEN: [f64; 8] = [
+            1.644_934_066_848_226_4, // zeta(2)
+            1.082_323_233_711_138_2, // zeta(4)
+            1.017_343_061_984_449_1, // zeta(6)
+            1.004_077_356_197_944_3, // zeta(8)
+            1.000_994_575_127_818_1, // zeta(10)
+            1.000_246_086_553_308_0, // zeta(12)
+            1.000_061_248_135_058_7, // zeta(14)
+            1.000_015_282_259_408_7, // zeta(16)
+        ];
+        let mut table = [0.0; 40];
+        for (i, c) in table.iter_mut().enumerate() {
+            let k = i + 1;
+            let zeta = if k <= ZETA_EVEN.len() {
+                ZETA_EVEN[k - 1]
+            } else {
+                let s = 2.0 * k as f64;
+                1.0 + 2f64.powf(-s) + 3f64.powf(-s) + 4f64.powf(-s)
+            };
+            *c = zeta / ((k * (2 * k + 1)) as f64);
+        }
+        table
+    })
 }
 
 /// Clausen function Cl2(theta) = -int_0^theta ln|2 sin(t/2)| dt, for any real theta.
@@ -44,8 +52,8 @@ pub fn clausen2(theta: f64) -> f64 {
     let x2 = (t / two_pi) * (t / two_pi);
     let mut sum = 0.0;
     let mut power = x2;
-    for k in 1..=40usize {
-        let term = zeta_even(k) / ((k * (2 * k + 1)) as f64) * power;
+    for &c in clausen_series_coefficients() {
+        let term = c * power;
         sum += term;
         if term < 1e-18 * sum {
             break;

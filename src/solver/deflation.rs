@@ -74,8 +74,6 @@ pub(crate) fn runs(mask: &[bool]) -> Vec<(usize, usize)> {
     out
 }
 
-/// Most run pairs summed to assemble E; beyond this only the largest islands are deflated.
-const MAX_RUN_PAIRS: usize = 16_000_000;
 
 /// Zero-sum island vectors Z0_g = 1_{group g} - (|group g| / m) 1_A, where a group is one run
 /// of contact or, when there are more runs than `max_dim`, several consecutive runs; with the
@@ -91,9 +89,16 @@ pub(crate) struct CoarseSpace {
 impl CoarseSpace {
     /// None when there is nothing to deflate (a single island) or E is not numerically positive.
     /// `displacement_of_set` is C 1_A, the displacement under unit pressure on the whole set.
-    pub fn new(pair_sums: &PairSums, mut runs: Vec<(usize, usize)>, mask: &[bool], displacement_of_set: &[f64], max_dim: usize) -> Option<Self> {
+    pub fn new(
+        pair_sums: &PairSums,
+        mut runs: Vec<(usize, usize)>,
+        mask: &[bool],
+        displacement_of_set: &[f64],
+        max_dim: usize,
+        max_run_pairs: usize,
+    ) -> Option<Self> {
         let all_runs = runs.len();
-        if all_runs > max_dim && all_runs * all_runs > MAX_RUN_PAIRS {
+        if all_runs > max_dim && all_runs * all_runs > max_run_pairs {
             runs.sort_by_key(|&(s, e)| std::cmp::Reverse(e - s));
             runs.truncate(max_dim);
             runs.sort_unstable();
@@ -110,14 +115,15 @@ impl CoarseSpace {
         // When every run is covered the group indicators sum to 1_A: one zero-sum vector is redundant.
         let columns = if runs.len() == all_runs { groups - 1 } else { groups };
         // E = G - row w^T - w row^T + total w w^T, G = Z^T C Z, row = Z^T C 1_A, total = 1_A^T C 1_A.
-        let mut g_matrix = Mat::<f64>::zeros(groups, groups);
+        let mut g_matrix = vec![0.0; groups * groups];
         for (j, &rj) in runs.iter().enumerate() {
+            let a = group_of[j];
             for (k, &rk) in runs.iter().enumerate().skip(j) {
                 let value = pair_sums.block(rj, rk);
-                let (a, b) = (group_of[j], group_of[k]);
-                g_matrix[(a, b)] += value;
+                let b = group_of[k];
+                g_matrix[a * groups + b] += value;
                 if j != k {
-                    g_matrix[(b, a)] += value;
+                    g_matrix[b * groups + a] += value;
                 }
             }
         }
@@ -126,7 +132,7 @@ impl CoarseSpace {
             .collect();
         let total: f64 = displacement_of_set.iter().zip(mask).filter(|(_, &m)| m).map(|(u, _)| u).sum();
         let e = Mat::from_fn(columns, columns, |a, b| {
-            g_matrix[(a, b)] - row[a] * weights[b] - weights[a] * row[b] + total * weights[a] * weights[b]
+            g_matrix[a * groups + b] - row[a] * weights[b] - weights[a] * row[b] + total * weights[a] * weights[b]
         });
         let factor = e.llt(Side::Lower).ok()?;
         let mut bounds = bounds;

@@ -235,6 +235,11 @@ impl ContactSolver {
         let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let z: Vec<f64> = heights.iter().map(|&h| h - top).collect();
         let strain = mean_pressure / e_star;
+        if !strain.is_normal() {
+            return invalid(format!(
+                "mean_pressure / E* = {strain:e} under- or overflows double precision: check the units of mean_pressure and youngs_modulus (Pa)"
+            ));
+        }
         let scale = height_scale(&z, strain, self.dx);
         let outcome = match self.options.method {
             Method::ConjugateGradient => {
