@@ -170,7 +170,8 @@ fn solve_on_set<Op: Compliance>(
         // One element carries the whole load: nothing to solve.
         return 0;
     }
-    let coarse = if deflate {
+    let islands = if deflate { runs(mask) } else { Vec::new() };
+    let coarse = if islands.len() >= 2 {
         let unit: Vec<f64> = mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
         op.displacement(&unit, &mut w.applied, &mut w.scratch);
         let n = mask.len();
@@ -179,11 +180,10 @@ fn solve_on_set<Op: Compliance>(
         } else {
             ((n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM), PRECISE_RUN_PAIRS)
         };
-        CoarseSpace::new(pair_sums, runs(mask), mask, &w.applied, dim, pairs)
+        CoarseSpace::new(pair_sums, islands, mask, &w.applied, dim, pairs)
     } else {
         None
     };
-
     // r = projected (z - C p) on A: the gap the approach cannot close.
     let update_residual = |p: &[f64], w: &mut Work<Op::Scratch>| {
         op.displacement(p, &mut w.displacement, &mut w.scratch);
