@@ -15,6 +15,7 @@
 
 pub mod batch;
 pub mod compliance;
+pub mod envelope;
 pub mod error;
 pub mod kernel;
 pub mod reference;

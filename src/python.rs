@@ -7,6 +7,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 use crate::batch::{solve_many as solve_many_core, Segments};
+use crate::envelope::von_meier as von_meier_core;
 use crate::error::ContactError;
 use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
 use crate::reference::{FlatPunch, Westergaard};
@@ -213,6 +214,14 @@ fn self_affine_profile(
     Ok(py.detach(|| self_affine(n, length, hurst, rms_slope, cutoff_fraction, seed)).into_pyarray(py))
 }
 
+/// The von Meier envelope (m) of heights (m) at spacing dx (m) with curvature limit d_star (1/m).
+#[pyfunction]
+fn von_meier<'py>(py: Python<'py>, heights: PyReadonlyArray1<'py, f64>, dx: f64, d_star: f64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let heights = heights.as_slice()?.to_vec();
+    let envelope = py.detach(|| von_meier_core(&heights, dx, d_star)).map_err(to_py_err)?;
+    Ok(envelope.into_pyarray(py))
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
@@ -223,6 +232,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(westergaard_contact_half_width, m)?)?;
     m.add_function(wrap_pyfunction!(flat_punch_element_pressure, m)?)?;
     m.add_function(wrap_pyfunction!(self_affine_profile, m)?)?;
+    m.add_function(wrap_pyfunction!(von_meier, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -11,5 +11,6 @@ True
 
 from roadtex._core import __version__
 from roadtex.contact import ContactBatch, ContactResult, ConvergenceError, contact, contact_many
+from roadtex.envelopes import von_meier
 
-__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "contact_many", "__version__"]
+__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "contact_many", "von_meier", "__version__"]

@@ -1,0 +1,31 @@
+"""Geometric envelopes that stand in for the elastic contact model, for comparison with it."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from roadtex import _core
+from roadtex.contact import _as_float_array, _scalar
+
+
+def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 54.0) -> np.ndarray:
+    """The von Meier et al. envelope of a profile (m).
+
+    The rubber sags into cavities as parabolas of bounded curvature: the result e is the lowest
+    sequence with e >= heights and (e[i-1] - 2 e[i] + e[i+1]) / dx^2 <= 2 d_star at every interior
+    point. It is computed exactly (to rounding) and without iteration, as the upper convex hull of
+    heights - d_star (i dx)^2 plus d_star (i dx)^2, in O(N).
+
+    Args:
+        heights: profile heights (m), at least 3 points, no NaN.
+        dx: sampling interval (m).
+        d_star: curvature limit d* (1/m); the seed's 0.054 1/mm is 54 1/m. 0 gives the upper
+            convex hull of the profile (a taut string).
+
+    Returns:
+        The envelope (m), same length as ``heights``; equal to them at both ends of every arc.
+    """
+    z = _as_float_array(heights, "heights", 1)
+    return _core.von_meier(z, _scalar(dx, "dx"), _scalar(d_star, "d_star"))
