@@ -32,7 +32,7 @@ const LOG2_SIZES: [u32; 6] = [10, 12, 14, 16, 18, 20];
 /// printed).
 const SOLVE_BUDGET: Duration = Duration::from_secs(2);
 /// Once a single solve takes longer than this, larger sizes are not even timed once.
-const CALIBRATION_CAP: Duration = Duration::from_secs(60);
+const CALIBRATION_CAP: Duration = Duration::from_secs(5);
 
 // The self-affine case, in E* = 1 units.
 const LENGTH: f64 = 1.0;
