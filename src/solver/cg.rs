@@ -37,8 +37,7 @@ const ROUGH_COARSE_DIM: usize = 256;
 const PRECISE_COARSE_DIM: usize = 1024;
 /// Most pairs of contact runs summed to assemble E (O(runs^2)); beyond this only the largest
 /// islands are deflated.
-const ROUGH_RUN_PAIRS: usize = 16_000_000;
-const PRECISE_RUN_PAIRS: usize = 16_000_000;
+const MAX_RUN_PAIRS: usize = 16_000_000;
 
 /// Work vectors of one solve (all of length N).
 struct Work<S> {
@@ -175,12 +174,12 @@ fn solve_on_set<Op: Compliance>(
         let unit: Vec<f64> = mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
         op.displacement(&unit, &mut w.applied, &mut w.scratch);
         let n = mask.len();
-        let (dim, pairs) = if rough {
-            ((n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM), ROUGH_RUN_PAIRS)
+        let dim = if rough {
+            (n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM)
         } else {
-            ((n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM), PRECISE_RUN_PAIRS)
+            (n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM)
         };
-        CoarseSpace::new(pair_sums, islands, mask, &w.applied, dim, pairs)
+        CoarseSpace::new(pair_sums, islands, mask, &w.applied, dim, MAX_RUN_PAIRS)
     } else {
         None
     };
