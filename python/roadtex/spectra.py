@@ -28,7 +28,8 @@ neighbouring lines, as with any window.
 **Periodic signals**, ``periodic=True``, the default for contact pressure: the output of the periodic
 contact model (enveloped profile, pressure) repeats with period L exactly, so the DFT lines are its
 exact Fourier series: no window, no detrending (the mean is the k = 0 line, which no band holds) and
-no leakage. Band powers are then exact.
+no leakage. Band powers are then exact. To compare a segment with its envelope, analyse the segment
+with ``periodic=True`` as well: that is how the model saw it.
 
 **Which bands are reported.** A band is flagged ``reported`` only where two limits allow it:
 
@@ -214,14 +215,17 @@ def band_table(dx: float, length: float, kind: BandKind = "third_octave", *,
     slack = 1.0 - 1e-9  # exact ties (e.g. 1 mm at dx = 0.4 mm) count as met despite rounding
     sampled = shortest >= per_wavelength * dx * slack
     long_enough = length >= per_length * longest * slack
+    short_name, long_name = (("centre wavelength", "centre wavelength") if kind == "third_octave" else
+                             ("centre wavelength of its shortest third octave",
+                              "centre wavelength of its longest third octave"))
     reasons: list[str | None] = []
     for ok_sampling, ok_length, short, long_ in zip(sampled, long_enough, shortest, longest):
         why = []
         if not ok_sampling:
-            why.append(f"centre wavelength {short * 1e3:.4g} mm is under {per_wavelength:g} sampling intervals "
+            why.append(f"{short_name}, {short * 1e3:.4g} mm, is under {per_wavelength:g} sampling intervals "
                        f"({per_wavelength * dx * 1e3:.4g} mm)")
         if not ok_length:
-            why.append(f"evaluation length {length * 1e3:.4g} mm is under {per_length:g} centre wavelengths "
+            why.append(f"evaluation length {length * 1e3:.4g} mm is under {per_length:g} times the {long_name} "
                        f"({per_length * long_ * 1e3:.4g} mm)")
         reasons.append("; ".join(why) or None)
     return pl.DataFrame({
@@ -270,8 +274,7 @@ class BandLevels:
         ``signal`` is the row index of the input array.
         """
         n_signals, n_bands = self.levels.shape
-        frame = pl.concat([self.bands] * n_signals) if n_signals else self.bands.clear()
-        frame = frame.with_columns(
+        frame = pl.concat([self.bands] * n_signals).with_columns(
             pl.Series("signal", np.repeat(np.arange(n_signals, dtype=np.int64), n_bands)),
             pl.Series("mean_square", self.mean_square.reshape(-1)),
             pl.Series("level_db", self.levels.reshape(-1)),
@@ -448,6 +451,11 @@ _NOT_KEYS = set(BAND_COLUMNS) | set(FREQUENCY_COLUMNS) | {"mean_square", "level_
 def level_differences(enveloped: pl.DataFrame, original: pl.DataFrame, *, level: str = "level_db",
                       on: Sequence[str] | None = None) -> pl.DataFrame:
     """Enveloped-minus-original level per band (the seed's figure 4.4, bottom).
+
+    Analyse both profiles the same way. For segments solved by the periodic contact model, that means
+    ``periodic=True`` for the original too: the model sees the segment as one period, and its envelope
+    is exactly periodic. Mixing a windowed original with a periodic envelope shifts the long bands by
+    window bias (a few dB at 12 wavelengths per segment), which is not envelopment.
 
     Args:
         enveloped: levels of enveloped profiles; may carry extra keys such as ``youngs_modulus``.
