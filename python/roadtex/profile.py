@@ -622,7 +622,8 @@ def _pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str
         if synonym in bases:
             return bases.index(synonym)
     if required:
-        raise ValueError(f"no {what} column among {names}; name it with {what}_column=")
+        hint = ", or give dx= (m) for evenly spaced heights" if what == "distance" else ""
+        raise ValueError(f"no {what} column among {names}; name it with {what}_column={hint}")
     return None
 
 
@@ -726,7 +727,7 @@ def _read_captif(data: bytes, name: str, options: dict) -> _Read:
         values = [p for p in parts[1:] if p]
         if not key:
             continue
-        metadata[re.sub(r"[^a-z0-9]+", "_", key.lower()).strip("_")] = " ".join(values)
+        metadata[re.sub(r"\W+", "_", key.strip().lower()).strip("_")] = " ".join(values)
     if marker + 1 >= len(lines):
         raise ValueError(f"{name}: CAPTIF file ends after its '*****DATA*****' line (no header, no data)")
     header = [h.strip() for h in lines[marker + 1].decode("utf-8", "replace").split("\t") if h.strip()]
@@ -811,19 +812,31 @@ def _read_csv(data: bytes, name: str, options: dict) -> _Read:
                 options = {**options, "dx": stored["dx"]}
         elif re.match(r"^[^:=]+[:=]", body):
             key, value = re.split(r"[:=]", body, maxsplit=1)
-            metadata[re.sub(r"[^a-z0-9]+", "_", key.strip().lower()).strip("_")] = _parse_value(value)
+            metadata[re.sub(r"\W+", "_", key.strip().lower()).strip("_")] = _parse_value(value)
     rest = lines[skip:]
     if not rest:
         raise ValueError(f"{name}: no data (only comments or blank lines)")
     separator = options.get("delimiter") or _sniff_separator(rest[:5])
     offset = ends[skip - 1] if skip else 0
     body = data[offset:]
+    header_text = rest[0].decode("utf-8", "replace")
     if separator == " ":
         body = re.sub(rb"[ \t]+", b"\t", re.sub(rb"(?m)^[ \t]+|[ \t]+$", b"", body))
         separator = "\t"
         rest = [re.sub(rb"[ \t]+", b"\t", line.strip()) for line in rest]
+        # blank-separated headers may hold names with single blanks ("height (mm)"): prefer runs
+        # of two or more blanks as separators when that matches the data's column count
+        columns = len(rest[1].split(b"\t")) if len(rest) > 1 else len(rest[0].split(b"\t"))
+        wide = [f for f in re.split(r"\s{2,}|\t", header_text.strip()) if f]
+        if len(wide) == columns:
+            rest[0] = "\t".join(wide).encode()
     first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
     has_header = not all(_is_number(f) for f in first)
+    if has_header and len(rest) > 1:
+        data_columns = len(rest[1].decode("utf-8", "replace").split(separator))
+        if data_columns != len(first):
+            raise ValueError(f"{name}: the header names {len(first)} columns ({first}) but the first data row "
+                             f"has {data_columns} fields")
     if has_header:
         names = first
         body = body[body.find(b"\n") + 1:] if b"\n" in body else b""
@@ -835,7 +848,7 @@ def _read_csv(data: bytes, name: str, options: dict) -> _Read:
     first_data_line = skip + (2 if has_header else 1)
     if not data.endswith(b"\n"):
         last = body.rstrip(b"\n").rsplit(b"\n", 1)[-1]
-        if last.count(separator.encode()) < n_columns - 1:
+        if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
             raise ValueError(f"{name}: the last line {last[:60].decode('utf-8', 'replace')!r} has fewer than "
                              f"{n_columns} fields and no line end: the file looks truncated")
     table, absent = _parse_table(body, separator, n_columns, name, first_data_line - 1)
