@@ -14,6 +14,7 @@
 //! ```
 
 pub mod batch;
+pub mod clapp;
 pub mod compliance;
 pub mod envelope;
 pub mod error;

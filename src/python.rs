@@ -7,6 +7,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 use crate::batch::{solve_many as solve_many_core, Segments};
+use crate::clapp::{clapp as clapp_core, ClappOptions};
 use crate::envelope::von_meier as von_meier_core;
 use crate::error::ContactError;
 use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
@@ -222,6 +223,30 @@ fn von_meier<'py>(py: Python<'py>, heights: PyReadonlyArray1<'py, f64>, dx: f64,
     Ok(envelope.into_pyarray(py))
 }
 
+type ClappSolved<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, usize, usize);
+
+/// Clapp's model. Returns (pressure Pa, envelope m, number of sub-profiles, most active-set sweeps).
+#[pyfunction]
+#[pyo3(signature = (heights, dx, youngs_modulus, poisson, mean_pressure, sub_profile, overlap, wrap))]
+#[allow(clippy::too_many_arguments)]
+fn clapp<'py>(
+    py: Python<'py>,
+    heights: PyReadonlyArray1<'py, f64>,
+    dx: f64,
+    youngs_modulus: f64,
+    poisson: f64,
+    mean_pressure: f64,
+    sub_profile: usize,
+    overlap: usize,
+    wrap: bool,
+) -> PyResult<ClappSolved<'py>> {
+    let material = Material::new(youngs_modulus, poisson).map_err(to_py_err)?;
+    let heights = heights.as_slice()?.to_vec();
+    let options = ClappOptions { sub_profile, overlap, wrap };
+    let solution = py.detach(|| clapp_core(&heights, dx, material, mean_pressure, options)).map_err(to_py_err)?;
+    Ok((solution.pressure.into_pyarray(py), solution.envelope.into_pyarray(py), solution.sub_profiles, solution.sweeps))
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
@@ -233,6 +258,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(flat_punch_element_pressure, m)?)?;
     m.add_function(wrap_pyfunction!(self_affine_profile, m)?)?;
     m.add_function(wrap_pyfunction!(von_meier, m)?)?;
+    m.add_function(wrap_pyfunction!(clapp, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
