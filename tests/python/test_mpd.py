@@ -1,0 +1,186 @@
+"""Mean profile depth: analytic profiles with known MPD, validity rules, real CAPTIF files, the peer."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roadtex.mpd import mpd
+from roadtex.profile import Profile, read_profile
+
+REPO = Path(__file__).resolve().parents[2]
+CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
+CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []
+needs_captif = pytest.mark.skipif(
+    not CAPTIF_FILES, reason=f"real CAPTIF profiles not found in {CAPTIF_DIR} (../shared beside the repo)")
+PEER_VENV = REPO / ".venv-peers"
+
+DX = 0.5e-3
+
+
+def cosine(amplitude: float = 1e-3, wavelength: float = 10e-3, length: float = 1.0, dx: float = DX) -> Profile:
+    """Samples at (k + 1/2) dx: every 100 mm segment is then mirror-symmetric about its centre, so
+    its least-squares slope is exactly 0, and the highest sample sits dx/2 from a crest."""
+    x = dx * (np.arange(int(round(length / dx))) + 0.5)
+    return Profile.from_heights(amplitude * np.cos(2 * np.pi * x / wavelength), dx, start=0.5 * dx)
+
+
+def sampled_crest(amplitude: float, wavelength: float) -> float:
+    return amplitude * math.cos(math.pi * DX / wavelength)
+
+
+def test_mpd_of_a_cosine_is_its_sampled_amplitude():
+    # each half segment holds whole periods: both peaks are the highest sample, the mean is 0
+    result = mpd(cosine(1e-3), lowpass_wavelength=None)
+    assert result.mpd == pytest.approx(sampled_crest(1e-3, 10e-3), rel=1e-9)
+    assert result.valid_segments == len(result.segments) == 10 and result.is_valid
+    np.testing.assert_allclose(result.msd, sampled_crest(1e-3, 10e-3), rtol=1e-9)
+
+
+def test_the_lowpass_filter_scales_mpd_by_its_analytic_gain():
+    wavelength, cutoff = 5e-3, 2.4e-3
+    ratio = math.tan(math.pi * DX / wavelength) / math.tan(math.pi * DX / cutoff)
+    gain = 1 / (1 + ratio**4)
+    result = mpd(cosine(1e-3, wavelength, length=2.0), lowpass_wavelength=cutoff)
+    inner = result.msd[1:-1]     # the outer segments feel the filter's end conditions
+    np.testing.assert_allclose(inner, sampled_crest(1e-3, wavelength) * gain, rtol=1e-6)
+    assert gain < 0.98           # the check has teeth: the filter takes 3 % at 5 mm
+
+
+def test_mpd_of_a_plateau_with_narrow_pores_is_depth_times_pore_share():
+    # negative texture: peak 0, mean -D w / P, so MSD = D w / P exactly
+    period, width, depth = 10e-3, 2e-3, 6e-3
+    x = DX * np.arange(2000)
+    phase = np.mod(x + 0.5 * DX, period)
+    z = np.where(np.abs(phase - 0.5 * period) < 0.5 * width, -depth, 0.0)
+    result = mpd(Profile.from_heights(z, DX), lowpass_wavelength=None, spike_alpha=None)
+    assert result.mpd == pytest.approx(depth * width / period, rel=1e-9)
+
+
+def test_slope_suppression_removes_a_linear_trend():
+    base = cosine(1e-3)
+    tilted = Profile.from_heights(base.heights + 0.05 * base.positions, DX)
+    assert mpd(tilted, lowpass_wavelength=None).mpd == pytest.approx(sampled_crest(1e-3, 10e-3), rel=1e-9)
+    first = tilted.heights[:200]
+    unsuppressed = 0.5 * (first[:100].max() + first[100:].max()) - first.mean()
+    assert unsuppressed > 1.5e-3   # without suppression the slope would count
+
+
+def test_highpass_slope_suppression_also_removes_long_waves():
+    base = cosine(1e-3, length=3.0)
+    wavy = Profile.from_heights(base.heights + 5e-3 * np.sin(2 * np.pi * base.positions / 2.0), DX)
+    result = mpd(wavy, lowpass_wavelength=None, slope_suppression="highpass")
+    assert result.mpd == pytest.approx(1e-3, rel=0.03)
+    assert result.parameters["highpass_wavelength"] == 0.1742
+
+
+def test_etd_is_two_tenths_of_a_millimetre_plus_eight_tenths_of_mpd():
+    result = mpd(cosine(0.8e-3), lowpass_wavelength=None)
+    assert result.etd == pytest.approx(0.2e-3 + 0.8 * sampled_crest(0.8e-3, 10e-3), rel=1e-9)
+
+
+def test_segments_with_too_many_dropouts_are_invalid_and_left_out():
+    base = cosine(1e-3).heights.copy()
+    base[200:200 + 30] = np.nan            # 15 % of segment 1
+    base[400:400 + 10] = np.nan            # 5 % of segment 2: still valid
+    base[650:800] = 2e-3 * np.cos(np.arange(150))   # segment 3 disturbed but complete
+    result = mpd(Profile.from_heights(base, DX), lowpass_wavelength=None, spike_alpha=None)
+    table = result.segments
+    assert table["valid"].to_list()[:4] == [True, False, True, True]
+    assert table["dropout_fraction"][1] == pytest.approx(0.15)
+    valid = table.filter(table["valid"])["msd"].to_numpy()
+    assert result.mpd == pytest.approx(valid.mean())
+    assert result.valid_segments == 9
+
+
+def test_spikes_are_removed_and_too_many_make_a_segment_invalid():
+    base = cosine(1e-3).heights.copy()
+    base[250] += 8e-3                       # one spike in segment 1
+    spiky = Profile.from_heights(base, DX)
+    assert mpd(spiky, lowpass_wavelength=None).msd[1] == pytest.approx(1e-3, rel=0.05)
+    assert mpd(spiky, lowpass_wavelength=None, spike_alpha=None).msd[1] > 3e-3
+    many = base.copy()
+    many[600:800:10] += 8e-3                # 20 spikes, 60 flagged samples = 30 % of segment 3
+    result = mpd(Profile.from_heights(many, DX), lowpass_wavelength=None)
+    assert not result.segments["valid"][3] and result.segments["spike_fraction"][3] > 0.05
+
+
+def test_a_result_with_few_valid_segments_is_flagged():
+    z = cosine(1e-3, length=0.3).heights.copy()
+    z[:400] = np.nan
+    z[0] = 0.0
+    result = mpd(Profile.from_heights(z, DX), lowpass_wavelength=None)
+    assert result.valid_segments == 1 and not result.is_valid
+    assert result.valid_fraction == pytest.approx(1 / 3)
+
+
+def test_mpd_works_on_raw_uneven_profiles_with_dropouts():
+    rng = np.random.default_rng(2)
+    x = np.cumsum(rng.uniform(0.03e-3, 0.045e-3, 40000))
+    z = 1e-3 * np.cos(2 * np.pi * x / 10e-3)
+    z[rng.random(z.size) < 0.05] = np.nan
+    result = mpd(Profile(z, x, float(np.mean(np.diff(x)))), lowpass_wavelength=None)
+    assert result.mpd == pytest.approx(1e-3, rel=0.02)
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"sample_spacing": 0.0}, "sample_spacing"),
+        ({"segment_length": 0.1003}, "whole number"),
+        ({"spike_alpha": -1}, "spike_alpha"),
+        ({"max_dropout_fraction": 1.5}, "between 0 and 1"),
+        ({"slope_suppression": "none"}, "slope_suppression"),
+    ],
+)
+def test_bad_settings_are_refused(options, message):
+    with pytest.raises(ValueError, match=message):
+        mpd(cosine(), **options)
+
+
+def test_too_short_profiles_and_non_profiles_are_refused():
+    with pytest.raises(ValueError, match="shorter than one 100 mm segment"):
+        mpd(cosine(length=0.08))
+    with pytest.raises(ValueError, match="Profile"):
+        mpd(np.zeros(1000))  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------------------------------
+# the real CAPTIF chip seals, against captif-slp
+
+# captif-slp's own test suite (tests/test_process.py) publishes these MPDs (mm) for the three files,
+# computed by its process_files (alpha 6, plates detected, 0.5 mm, 100 mm segments).
+PUBLISHED_PEER_MPD_MM = {
+    "20211011_aylesbury_dec_station_0.dat": 3.2777511138235296,
+    "20211011_aylesbury_dec_station_1.dat": 3.0331992396875003,
+    "20211011_aylesbury_dec_station_10.dat": 3.420159709285714,
+}
+
+
+@needs_captif
+@pytest.mark.parametrize("path", CAPTIF_FILES, ids=lambda p: p.name)
+def test_real_chip_seals_match_the_peers_published_mpd_within_2_percent(path):
+    result = mpd(read_profile(path), spike_alpha=6)
+    expected = PUBLISHED_PEER_MPD_MM[path.name] * 1e-3
+    assert abs(result.mpd / expected - 1) < 0.02
+    assert result.is_valid and len(result.segments) == 18
+
+
+@needs_captif
+@pytest.mark.skipif(not (PEER_VENV / "bin" / "python").exists(),
+                    reason="the captif-slp peer needs its own venv: create it with "
+                           "'bash scripts/peer-captif-slp.sh install' (about a minute; it pins numpy < 2)")
+def test_real_chip_seals_match_captif_slp_run_live_within_2_percent():
+    out = subprocess.run(["bash", str(REPO / "scripts" / "peer-captif-slp.sh"), "mpd", "--alpha", "6",
+                          *map(str, CAPTIF_FILES)], capture_output=True, text=True, timeout=300, check=True)
+    peer = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+    assert len(peer) == len(CAPTIF_FILES)
+    for path, theirs in zip(CAPTIF_FILES, peer):
+        ours = mpd(read_profile(path), spike_alpha=6)
+        assert abs(ours.mpd / (theirs["mpd_mm"] * 1e-3) - 1) < 0.02, path.name
+        assert ours.valid_segments == theirs["valid_segments"], path.name
