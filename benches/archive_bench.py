@@ -8,7 +8,8 @@ Run from the project root (a benchmark, not a test: it prints figures and never 
 What it does:
   1. Writes a synthetic archive (if not already there, in --work): runs of --run-length m of the
      project's synthetic pavements (dense asphalt, porous asphalt, cement concrete, surface
-     dressing in turn) at dx = 0.5 mm, as Parquet profile files, and a manifest. Writing is not timed.
+     dressing in turn; runs rounded up to whole sets of four) at dx = 0.5 mm, as Parquet profile
+     files, and a manifest. Writing is not timed.
   2. Runs ``roadtex.archive.process`` on it (local engine, all cores, 0.5 m segments, E = 1, 2, 5
      and 10 MPa, P = 0.2 MPa, tol 1e-6): wall time end to end (reading, conditioning, MPD,
      segmenting, contact, spectra, Parquet), peak resident memory of this process.
@@ -26,7 +27,6 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -41,22 +41,11 @@ KINDS = ("dense_asphalt", "porous_asphalt", "cement_concrete", "surface_dressing
 
 
 def write_archive(folder: Path, km: float, run_length: float) -> Path:
-    from roadtex.pavements import synthetic_pavement
-    from roadtex.profile import write_profile
+    from roadtex.archive import write_synthetic_archive
 
-    manifest = folder / "manifest.csv"
     runs = max(1, round(km * 1000 / run_length))
-    if manifest.exists() and pl.read_csv(manifest).height == runs:
-        return manifest
-    shutil.rmtree(folder, ignore_errors=True)
-    folder.mkdir(parents=True)
-    rows = []
-    for i in range(runs):
-        kind = KINDS[i % len(KINDS)]
-        path = write_profile(synthetic_pavement(kind, run_length, DX, seed=i), folder / f"run{i:04d}.parquet")
-        rows.append({"path": path.name, "run_id": f"run{i:04d}", "pavement": kind, "speed_kmh": 80.0})
-    pl.DataFrame(rows).write_csv(manifest)
-    return manifest
+    per_kind = -(-runs // len(KINDS))
+    return write_synthetic_archive(folder, kinds=KINDS, runs_per_kind=per_kind, run_length=run_length, dx=DX)
 
 
 def peak_memory_gib() -> float:
@@ -67,6 +56,7 @@ def tamaas_loop(segments: np.ndarray, tol: float) -> float:
     """Seconds for a plain Python loop of tamaas solves over segments x moduli."""
     import tamaas as tm
 
+    tm.set_log_level(tm.LogLevel.error)
     n = segments.shape[1]
     length = n * DX
     start = time.perf_counter()

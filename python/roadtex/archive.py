@@ -343,6 +343,49 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     return read_manifest(table, base_dir=root)
 
 
+#: The seed's three pavements, the built-in demo archive.
+DEMO_PAVEMENTS = ("cement_concrete", "dense_asphalt", "porous_asphalt")
+
+
+def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[str] = DEMO_PAVEMENTS,
+                            runs_per_kind: int = 2, run_length: float = 4.0, dx: float = 5e-4,
+                            file_format: str = "parquet", speed_kmh: float = 80.0, seed: int = 0) -> Path:
+    """Writes an archive of synthetic pavement runs (:func:`roadtex.pavements.synthetic_pavement`)
+    as profile files plus ``manifest.csv``, as a survey would deliver it.
+
+    Args:
+        folder: where to write (created).
+        kinds: pavement kinds, taken in turn.
+        runs_per_kind: runs of each kind (each from its own seed).
+        run_length: metres per run.
+        dx: sampling interval (m).
+        file_format: "parquet", "csv" or "npy".
+        speed_kmh: the speed written into the manifest (km/h), for band frequencies.
+        seed: seed of the first run; run i uses seed + i.
+
+    Returns:
+        The manifest's path. An archive already there with the same runs is kept as it is.
+    """
+    from roadtex.pavements import synthetic_pavement
+    from roadtex.profile import write_profile
+
+    root = Path(folder)
+    root.mkdir(parents=True, exist_ok=True)
+    suffix = {"parquet": ".parquet", "csv": ".csv", "npy": ".npy"}[file_format]
+    rows = []
+    for i in range(runs_per_kind * len(kinds)):
+        kind = kinds[i % len(kinds)]
+        run_id = f"{kind}_{i // len(kinds) + 1:03d}"
+        path = root / f"{run_id}{suffix}"
+        if not path.exists():
+            write_profile(synthetic_pavement(kind, run_length, dx, seed=seed + i), path)
+        rows.append({"path": path.name, "run_id": run_id, "site": f"synthetic-{run_id}", "pavement": kind,
+                     "device": "roadtex synthetic pavement generator", "speed_kmh": speed_kmh})
+    manifest = root / "manifest.csv"
+    pl.DataFrame(rows).write_csv(manifest)
+    return manifest
+
+
 def _unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
     taken = {r["run_id"] for r in rows}
     if path.stem not in taken:

@@ -5,49 +5,50 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-
-import numpy as np
-import polars as pl
-
-from roadtex.contact import contact_many
-from roadtex.synthetic import self_affine_profile
+from pathlib import Path
 
 
 def demo(args: argparse.Namespace) -> int:
-    """Solves built-in rough road-like profiles at several rubber moduli and prints a summary."""
-    n, dx = args.points, args.dx
-    length = n * dx
-    segments = np.stack([
-        # Road-like texture: rms slope 0.2 over macro/megatexture wavelengths down to 4 dx.
-        self_affine_profile(n, length, hurst=0.8, rms_slope=0.2, cutoff_fraction=0.25, seed=seed)
-        for seed in range(args.segments)
-    ])
-    moduli = np.array(args.moduli, dtype=float) * 1e6
-    pressure = args.pressure * 1e6
-    print(f"roadtex demo: {args.segments} synthetic self-affine profiles, {n} points at dx = {dx * 1e3:g} mm "
-          f"(L = {length * 1e3:.0f} mm), rms height {segments.std(axis=1).mean() * 1e3:.2f} mm; "
-          f"periodic INRETS model, mean pressure {args.pressure:g} MPa, nu = 0.5")
-    start = time.perf_counter()
-    batch = contact_many(segments, dx, moduli, pressure, tol=args.tol)
-    elapsed = time.perf_counter() - start
-    rows = []
-    for result in batch:
-        rows.append({
-            "E (MPa)": result.youngs_modulus / 1e6,
-            "contact (%)": 100 * result.contact_fraction,
-            "max pressure (MPa)": float(result.pressure.max()) / 1e6,
-            "mean depth below envelope (mm)": float(result.depth_below_envelope.mean()) * 1e3,
-            "iterations": result.iterations,
-            "residual": result.residual,
-        })
-    table = (pl.DataFrame(rows).group_by("E (MPa)", maintain_order=True)
-             .agg(pl.exclude("residual").mean(), pl.col("residual").max().alias("worst residual"))
-             .sort("E (MPa)")
-             .with_columns(pl.col("worst residual").map_elements(lambda r: f"{r:.1e}", return_dtype=pl.String)))
-    with pl.Config(tbl_rows=50, tbl_cols=10, float_precision=3, tbl_width_chars=160):
-        print(table)
-    print(f"solved {len(batch)} contact problems in {elapsed:.2f} s (means over profiles per modulus; "
-          f"residual: worst gap/penetration relative to the profile height, tolerance {args.tol:g})")
+    """``roadtex demo``: the real pipeline on the built-in archive (or a given manifest), then the report."""
+    from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process, write_synthetic_archive
+    from roadtex.report import build_report
+
+    out = Path(args.out)
+    started = time.perf_counter()
+    if args.manifest is None:
+        manifest = write_synthetic_archive(out / "archive", runs_per_kind=args.runs, run_length=args.run_length)
+        print(f"roadtex demo: wrote a synthetic archive of cement concrete, dense asphalt and porous asphalt, "
+              f"{args.runs} run(s) of {args.run_length:g} m each at 0.5 mm sampling -> {manifest}")
+    else:
+        manifest = Path(args.manifest)
+        print(f"roadtex demo: processing the archive listed in {manifest}")
+    options = ProcessingOptions(youngs_moduli=tuple(e * 1e6 for e in args.moduli), mean_pressure=args.pressure * 1e6)
+    print(f"roadtex demo: roadtex process {manifest} --out {out / 'results'}: periodic INRETS contact of every "
+          f"{options.segment_length:g} m segment at E = {', '.join(f'{e:g}' for e in args.moduli)} MPa, "
+          f"P = {args.pressure:g} MPa; texture and pressure spectra; MPD")
+    try:
+        summary = process(manifest, out / "results", options, quiet=args.quiet)
+    except (ManifestError, ArchiveWriteError, ValueError) as exc:
+        print(f"roadtex demo: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"roadtex demo: {summary}")
+    report = build_report(out / "results", out_dir=out / "report", benchmark=args.benchmark)
+    print(f"roadtex demo: report with {len(report.figures)} figures -> {report.html.resolve()}")
+    print(f"roadtex demo: tables in {(out / 'results').resolve()} (segments.parquet, bands.parquet, runs.parquet, "
+          f"errors.parquet); done in {time.perf_counter() - started:.1f} s")
+    return 1 if summary.failed else 0
+
+
+def report_command(args: argparse.Namespace) -> int:
+    """``roadtex report RESULTS_DIR``: the HTML report and figures of a processed archive."""
+    from roadtex.report import build_report
+
+    try:
+        report = build_report(args.results, out_dir=args.out, benchmark=args.benchmark)
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"roadtex report: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"roadtex report: {len(report.figures)} figures -> {report.html}")
     return 0
 
 
@@ -131,20 +132,27 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
     commands = parser.add_subparsers(dest="command", required=True)
-    d = commands.add_parser("demo", help="solve built-in rough profiles at several moduli and print a summary")
-    d.add_argument("--points", type=int, default=8192, help="points per profile (default 8192)")
-    d.add_argument("--dx", type=float, default=5e-5, help="sampling interval in metres (default 5e-5)")
-    d.add_argument("--segments", type=int, default=8, help="number of profiles (default 8)")
-    d.add_argument("--moduli", type=float, nargs="+", default=[1.0, 2.5, 5.0, 10.0],
-                   help="Young's moduli in MPa (default 1 2.5 5 10)")
-    d.add_argument("--pressure", type=float, default=0.2, help="mean pressure in MPa (default 0.2)")
-    d.add_argument("--tol", type=float, default=1e-8, help="solver tolerance (default 1e-8)")
+    d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report")
+    d.add_argument("--out", default="roadtex-output", help="output folder (default roadtex-output)")
+    d.add_argument("--manifest", default=None, help="process this archive instead of the built-in one")
+    d.add_argument("--runs", type=int, default=2, help="runs per pavement type in the built-in archive (default 2)")
+    d.add_argument("--run-length", type=float, default=4.0, metavar="M", help="metres per built-in run (default 4)")
+    d.add_argument("--moduli", type=float, nargs="+", default=[1.0, 2.0, 5.0, 10.0], metavar="MPA",
+                   help="Young's moduli in MPa (default 1 2 5 10)")
+    d.add_argument("--pressure", type=float, default=0.2, metavar="MPA", help="mean pressure in MPa (default 0.2)")
+    d.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(run=demo)
     p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)")
     p.add_argument("manifest", help="manifest file (CSV or Parquet) listing the runs")
     p.add_argument("--out", required=True, help="output folder")
     _add_processing_arguments(p)
     p.set_defaults(run=process_command)
+    r = commands.add_parser("report", help="HTML report and figures of a processed archive")
+    r.add_argument("results", help="the output folder of roadtex process")
+    r.add_argument("--out", default=None, help="report folder (default RESULTS/report)")
+    r.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
+    r.set_defaults(run=report_command)
     m = commands.add_parser("manifest", help="list a folder's profile files as a manifest CSV")
     m.add_argument("folder", help="folder with profile files")
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
