@@ -15,8 +15,11 @@ from roadtex.envelopes import von_meier
 from roadtex.spectra import (BandLevels, band_levels, band_regressions, band_table, level_differences, octave_levels,
                              pressure_levels, third_octave_levels, time_frequency, with_time_frequency)
 from roadtex.calibration import CalibrationResult, calibrate_modulus
+from roadtex.archive import ProcessingOptions, build_manifest, process, read_manifest, read_profiles
+from roadtex.report import build_report
 
 __all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "contact_many", "von_meier", "__version__",
            "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
            "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
-           "CalibrationResult", "calibrate_modulus"]
+           "CalibrationResult", "calibrate_modulus",
+           "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report"]
