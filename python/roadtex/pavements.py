@@ -1,4 +1,4 @@
-"""Synthetic road pavements for tests and the demo, and third-octave texture spectra.
+"""Synthetic road pavements for tests and the demo.
 
 Synthetic profiles are built from the things a laser sees on a road: aggregate stones (rounded
 caps of a given size distribution, laid one after another along the line), the binder or mortar
@@ -7,7 +7,7 @@ physical (stone sizes, gaps, how deep the binder sits) and were set so that MPD 
 where measured surfaces of each kind do; nothing is rescaled to hit a target.
 
 Targets. Mean profile depth (ISO 13473-1) of each kind lands in the range typical of that surface
-type; the texture spectrum (ISO 13473-4 levels, dB re 1 um, see :func:`third_octave_texture_levels`)
+type; the texture spectrum (ISO 13473-4 levels, dB re 1 um, :func:`roadtex.spectra.third_octave_levels`)
 peaks where the aggregate or the tining puts it:
 
 - ``dense_asphalt`` (AC 0/11): MPD 0.5 to 1.0 mm (the generator gives about 0.8 mm); spectrum
@@ -34,7 +34,6 @@ specifications.
 
 from __future__ import annotations
 
-import math
 import numpy as np
 
 from roadtex.profile import Profile, _positive, _scalar
@@ -210,47 +209,3 @@ def _correlated_noise(n: int, dx: float, correlation: float, rng: np.random.Gene
     shaped = np.fft.irfft(np.fft.rfft(white) * np.exp(-(np.pi * k * correlation) ** 2 / 2.0), n)
     sd = shaped.std()
     return shaped / sd if sd > 0 else shaped
-
-
-# --------------------------------------------------------------------------------------------------
-
-def third_octave_texture_levels(profile: Profile, *, shortest: float = 0.5e-3,
-                                longest: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Texture level spectrum in third-octave bands (ISO 13473-4 style).
-
-    L_tx(lambda) = 10 log10(a_rms^2 / a_ref^2) dB with a_ref = 1e-6 m, where a_rms^2 is the part of
-    the profile's variance in the band (edges 2^(+-1/6) around the centre wavelength). The variance
-    comes from a Hann-windowed periodogram of the whole detrended profile, scaled so the bands add
-    up to the profile's variance. Bands run over the base-10 third-octave centre wavelengths
-    (..., 8, 10, 12.5, 16, ... mm) from ``shortest`` to ``longest`` (m) that the profile resolves
-    (longer than 2 dx, shorter than a quarter of its length).
-
-    Args:
-        profile: a uniform profile (m); drop-outs are interpolated first.
-
-    Returns:
-        (centre wavelengths (m), levels (dB re 1 um)), shortest wavelength first.
-    """
-    prepared = profile if not np.isnan(profile.heights).any() else profile.fill_dropouts()
-    if not prepared.is_uniform:
-        raise ValueError("third_octave_texture_levels needs uniform sampling: resample(dx) first")
-    z = prepared.detrend("linear").heights
-    n = z.size
-    window = np.hanning(n)
-    spectrum = np.abs(np.fft.rfft(z * window)) ** 2
-    spectrum[1:-1] *= 2.0
-    spectrum *= 1.0 / (n * np.sum(window ** 2))  # sum(spectrum) == mean(z**2) for stationary z
-    wavenumber = np.fft.rfftfreq(n, prepared.dx)
-    exponents = np.arange(math.floor(10 * math.log10(_positive(shortest, "shortest") * 1e3)),
-                          math.ceil(10 * math.log10(_positive(longest, "longest") * 1e3)) + 1)
-    centres = 1e-3 * 10.0 ** (exponents / 10.0)
-    keep = (centres > 2.0 * prepared.dx * 2 ** (1 / 6)) & (centres < prepared.length / 4.0)
-    centres = centres[keep]
-    if centres.size == 0:
-        raise ValueError("the profile resolves no third-octave band (too short or too coarse)")
-    levels = np.empty(centres.size)
-    for i, centre in enumerate(centres):
-        band = (wavenumber >= 1.0 / (centre * 2 ** (1 / 6))) & (wavenumber < 1.0 / (centre * 2 ** (-1 / 6)))
-        power = float(spectrum[band].sum())
-        levels[i] = 10.0 * math.log10(power / 1e-12) if power > 0 else -np.inf
-    return centres, levels

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from roadtex.mpd import mpd
-from roadtex.pavements import synthetic_pavement, third_octave_texture_levels
+from roadtex.pavements import synthetic_pavement
 from roadtex.profile import Profile, read_profile
+from roadtex.spectra import third_octave_levels
 
 CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
 CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []
@@ -67,30 +67,13 @@ def test_porous_asphalt_is_negative_texture_unlike_the_others():
         assert skewness(synthetic_pavement(kind, 1.0, 0.1e-3, seed=0).heights) > porous + 0.8
 
 
-def test_texture_levels_of_a_sinusoid_are_its_rms_in_its_band():
-    dx, wavelength, amplitude = 0.5e-3, 10e-3, 0.2e-3
-    x = dx * np.arange(8000)
-    centres, levels = third_octave_texture_levels(Profile.from_heights(amplitude * np.sin(2 * np.pi * x / wavelength), dx))
-    band = int(np.argmin(np.abs(centres - wavelength)))
-    assert levels[band] == pytest.approx(20 * math.log10(amplitude / math.sqrt(2) / 1e-6), abs=0.1)
-    assert np.all(levels[np.abs(np.arange(levels.size) - band) > 2] < levels[band] - 30)
-    np.testing.assert_allclose(centres[band], 10e-3, rtol=1e-12)
-
-
-def test_band_powers_add_up_to_the_variance_of_a_broadband_profile():
-    # one sinusoid at every band centre from 2 to 100 mm, random phases: variance sum(A^2 / 2)
-    dx, n = 0.5e-3, 2**15
-    x = dx * np.arange(n)
-    rng = np.random.default_rng(0)
-    wavelengths = 1e-3 * 10 ** (np.arange(3, 21) / 10)
-    amplitudes = 1e-4 * rng.uniform(0.5, 2.0, wavelengths.size)
-    z = sum(a * np.sin(2 * np.pi * x / w + rng.uniform(0, 2 * np.pi)) for a, w in zip(amplitudes, wavelengths))
-    centres, levels = third_octave_texture_levels(Profile.from_heights(z, dx), shortest=1e-3, longest=0.2)
-    total = np.sum(10 ** (levels / 10)) * 1e-12
-    assert total == pytest.approx(np.sum(amplitudes**2) / 2, rel=0.02)
-    inside = (centres > 1.8e-3) & (centres < 110e-3)
-    expected = 20 * np.log10(amplitudes / np.sqrt(2) / 1e-6)
-    np.testing.assert_allclose(levels[inside], expected, atol=0.3)
+def third_octave_texture_levels(profile: Profile, *, shortest: float = 0.5e-3,
+                                longest: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """(centre wavelengths (m), levels (dB re 1 um)) of the bands roadtex.spectra reports."""
+    table = third_octave_levels(profile.heights, profile.dx)
+    table = table.filter(table["reported"] & (table["centre_wavelength"] >= shortest * 0.99)
+                         & (table["centre_wavelength"] <= longest * 1.01)).sort("centre_wavelength")
+    return table["centre_wavelength"].to_numpy(), table["level_db"].to_numpy()
 
 
 @pytest.mark.parametrize("kind, peak_range_mm", [("dense_asphalt", (5.0, 13.0)), ("porous_asphalt", (9.0, 21.0)),
