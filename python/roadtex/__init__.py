@@ -23,3 +23,10 @@ __all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "cont
            "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
            "CalibrationResult", "calibrate_modulus",
            "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report"]
+
+# Road profiles (issue 4). Note: ``roadtex.mpd`` is the function; the module stays importable.
+from roadtex.profile import Profile, Segments, read_profile, write_profile  # noqa: E402
+from roadtex.mpd import MpdResult, mpd  # noqa: E402
+from roadtex.pavements import synthetic_pavement  # noqa: E402
+
+__all__ += ["Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement"]
