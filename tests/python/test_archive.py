@@ -321,3 +321,24 @@ def test_cli_process_runs_end_to_end_and_reports_failures_by_exit_code(tmp_path:
     pl.DataFrame({"path": ["nowhere.csv"]}).write_csv(bad)
     failed = subprocess.run(_job(bad, tmp_path / "out2"), capture_output=True, text=True)
     assert failed.returncode == 2 and "do not exist" in failed.stderr
+
+
+def test_real_captif_archive_end_to_end(tmp_path: Path, captif_dir: Path) -> None:
+    """The three real CAPTIF chip-seal files through the whole job: plates trimmed, MPD as roadtex.mpd."""
+    from roadtex.mpd import mpd
+    from roadtex.profile import read_profile
+
+    manifest = build_manifest(captif_dir)
+    options = ProcessingOptions(youngs_moduli=(2e6, 1e7), dx=2e-4, mpd_spike_alpha=6.0, tol=1e-8)
+    summary = process(manifest, tmp_path / "out", options, quiet=True)
+    assert (summary.processed, summary.failed) == (3, 0)
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
+    for path, run_mpd, length in runs.select("path", "mpd", "length").iter_rows():
+        assert run_mpd == mpd(read_profile(path), spike_alpha=6.0).mpd
+        assert 2.5e-3 < run_mpd < 4e-3  # coarse chip seals (captif-slp publishes 3.0 to 3.4 mm)
+        assert 1.5 < length < 1.95      # about 1.92 m measured, less the reference plates
+    seg = pl.read_parquet(tmp_path / "out" / "segments.parquet")
+    assert seg["converged"].all()
+    assert seg["wheel_path"].null_count() == 0 and seg["date"].null_count() == 0
+    # Chip seal is positive texture: the rubber rests on the chip tops, far from full contact.
+    assert seg["contact_fraction"].max() < 0.6
