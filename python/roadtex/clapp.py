@@ -11,11 +11,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex.contact import _as_float_array, _positive_int, _scalar
+from roadtex.contact import ContactMeasures, _as_float_array, _positive_int, _scalar
 
 
 @dataclass(frozen=True)
-class ClappResult:
+class ClappResult(ContactMeasures):
     """Clapp's model on one profile.
 
     Attributes:
@@ -43,26 +43,6 @@ class ClappResult:
     wrap: bool
     sub_profiles: int
     sweeps: int
-
-    @property
-    def in_contact(self) -> np.ndarray:
-        """Boolean mask of elements carrying pressure."""
-        return self.pressure > 0.0
-
-    @property
-    def contact_fraction(self) -> float:
-        """Share of the sample length in contact (0..1)."""
-        return float(np.count_nonzero(self.pressure > 0.0) / self.pressure.size)
-
-    @property
-    def depth_below_envelope(self) -> np.ndarray:
-        """envelope - heights (m): how far the envelope stays above the road, 0 on contact."""
-        return self.envelope - self.heights
-
-    @property
-    def plane_strain_modulus(self) -> float:
-        """E* = E / (1 - nu^2) (Pa)."""
-        return self.youngs_modulus / (1.0 - self.poisson**2)
 
     @property
     def parameters(self) -> dict[str, Any]:

@@ -20,8 +20,36 @@ class ConvergenceError(RuntimeError):
     """The solver stopped at ``max_iterations`` before reaching ``tol``."""
 
 
+class ContactMeasures:
+    """What every contact model's result derives from its pressure and envelope.
+
+    Mixed into :class:`ContactResult` and :class:`roadtex.clapp.ClappResult`, which carry
+    ``heights``, ``pressure``, ``envelope`` (m, Pa, m), ``youngs_modulus`` (Pa) and ``poisson``.
+    """
+
+    @property
+    def in_contact(self) -> np.ndarray:
+        """Boolean mask of elements carrying pressure."""
+        return self.pressure > 0.0
+
+    @property
+    def contact_fraction(self) -> float:
+        """Share of the sample length in contact (0..1)."""
+        return float(np.count_nonzero(self.pressure > 0.0) / self.pressure.size)
+
+    @property
+    def depth_below_envelope(self) -> np.ndarray:
+        """envelope - heights (m): how far the rubber stays above the road, 0 on contact."""
+        return self.envelope - self.heights
+
+    @property
+    def plane_strain_modulus(self) -> float:
+        """E* = E / (1 - nu^2) (Pa)."""
+        return self.youngs_modulus / (1.0 - self.poisson**2)
+
+
 @dataclass(frozen=True)
-class ContactResult:
+class ContactResult(ContactMeasures):
     """One solved contact problem.
 
     Attributes:
@@ -46,26 +74,6 @@ class ContactResult:
     youngs_modulus: float
     poisson: float
     mean_pressure: float
-
-    @property
-    def in_contact(self) -> np.ndarray:
-        """Boolean mask of elements carrying pressure."""
-        return self.pressure > 0.0
-
-    @property
-    def contact_fraction(self) -> float:
-        """Share of the sample length in contact (0..1)."""
-        return float(np.count_nonzero(self.pressure > 0.0) / self.pressure.size)
-
-    @property
-    def depth_below_envelope(self) -> np.ndarray:
-        """envelope - heights (m): how far the rubber stays above the road, 0 on contact."""
-        return self.envelope - self.heights
-
-    @property
-    def plane_strain_modulus(self) -> float:
-        """E* = E / (1 - nu^2) (Pa)."""
-        return self.youngs_modulus / (1.0 - self.poisson**2)
 
 
 @dataclass(frozen=True)
