@@ -34,7 +34,7 @@ FIGURES: dict[str, str] = {
     "fig_3_1_edge_effect": "Figure 3.1: the edge effect: pressure on a flat profile, finite sample against the periodic model.",
     "fig_4_1_envelopes": "Figure 4.1: enveloped profiles of each pavement at several rubber moduli E (INRETS periodic model).",
     "fig_4_2_pressures": "Figure 4.2: contact pressure distributions of the profiles of figure 4.1.",
-    "fig_4_3_valley_penetration": "Figure 4.3: depth of penetration into each valley, von Meier (d* = 0.054 1/mm) against INRETS at several E.",
+    "fig_4_3_valley_penetration": "Figure 4.3: depth of penetration into each valley, below the line joining its two asperities, von Meier (d* = 0.054 1/mm) against INRETS at several E; negative where the rubber stays above that line.",
     "fig_4_4_texture_spectra": "Figure 4.4: one-third-octave texture spectra of enveloped profiles (top) and their difference from the original profile (bottom).",
     "fig_4_5_pressure_spectra": "Figure 4.5: one-third-octave spectra of the contact pressure.",
     "fig_4_6_pressure_vs_texture": "Figure 4.6: pressure level against enveloped texture level per octave band, one regression line per E.",
