@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use crate::error::{invalid, ContactError, Result};
-use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, SolverOptions};
+use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, SolverOptions, Workspace};
 
 /// Segments of equal length N, stored row after row.
 #[derive(Clone, Copy, Debug)]
@@ -54,9 +54,10 @@ pub fn solve_many(
     let run = || {
         (0..jobs)
             .into_par_iter()
-            .map(|job| {
+            // One workspace per rayon work item, reused across its jobs: results never depend on it.
+            .map_init(Workspace::default, |workspace, job| {
                 let (s, m) = (job / materials.len(), job % materials.len());
-                solver.solve(segments.row(s), materials[m], mean_pressure)
+                solver.solve_in(workspace, segments.row(s), materials[m], mean_pressure)
             })
             .collect::<Result<Vec<_>>>()
     };

@@ -19,6 +19,13 @@ pub trait Compliance: Sync {
     fn dense_entry(&self, i: usize, j: usize) -> f64 {
         self.kernel_at(i as isize - j as isize)
     }
+
+    /// out += weight * (column j of C): the displacement of pressure `weight` on element j alone.
+    fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o += weight * self.dense_entry(i, j);
+        }
+    }
 }
 
 /// The periodic (INRETS) model: a circulant operator.
@@ -91,6 +98,19 @@ impl Compliance for PeriodicCompliance {
         let n = self.circulant.len() as isize;
         self.coefficients()[offset.rem_euclid(n) as usize]
     }
+
+    fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {
+        // C[i][j] = c[(i - j) mod N].
+        let c = self.coefficients();
+        let n = c.len();
+        let (head, tail) = out.split_at_mut(j);
+        for (o, &cv) in tail.iter_mut().zip(&c[..n - j]) {
+            *o += weight * cv;
+        }
+        for (o, &cv) in head.iter_mut().zip(&c[n - j..]) {
+            *o += weight * cv;
+        }
+    }
 }
 
 /// The finite (non-periodic) model: a Toeplitz operator applied as a circulant of twice the size
@@ -155,5 +175,17 @@ impl Compliance for FiniteCompliance {
 
     fn kernel_at(&self, offset: isize) -> f64 {
         self.coefficients[offset.unsigned_abs()]
+    }
+
+    fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {
+        // C[i][j] = c[|i - j|].
+        let c = &self.coefficients;
+        let (head, tail) = out.split_at_mut(j);
+        for (o, &cv) in tail.iter_mut().zip(c) {
+            *o += weight * cv;
+        }
+        for (o, &cv) in head.iter_mut().rev().zip(&c[1..]) {
+            *o += weight * cv;
+        }
     }
 }

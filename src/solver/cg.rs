@@ -39,9 +39,23 @@ const PRECISE_COARSE_DIM: usize = 1024;
 /// islands are deflated.
 const MAX_RUN_PAIRS: usize = 16_000_000;
 
-/// Work vectors of one solve (all of length N).
-struct Work<S> {
+/// Most points whose pressure is dropped from the set between sweeps for which C p is updated
+/// column by column (O(N) each) instead of by a fresh FFT product.
+const MAX_COLUMN_UPDATES: usize = 24;
+
+/// Bound-constrained CG steps before the active-set sweeps, by N: more help at larger N, where
+/// each sweep costs more (measured on self-affine profiles, N = 1,000 to 65,536).
+fn warm_up_iterations(n: usize) -> usize {
+    let log2 = (usize::BITS - n.leading_zeros()) as usize;
+    (3 * log2).saturating_sub(26).clamp(4, 30)
+}
+
+/// Work vectors of one solve (all of length N). Every solve overwrites them before reading, so one
+/// `Work` can serve any number of solves (of the same N) with bitwise the same results.
+pub(crate) struct Work<S> {
     scratch: S,
+    mask: Vec<bool>,
+    coarse_rhs: Vec<f64>,
     displacement: Vec<f64>,
     residual: Vec<f64>,
     preconditioned: Vec<f64>,
@@ -49,6 +63,28 @@ struct Work<S> {
     direction: Vec<f64>,
     applied_direction: Vec<f64>,
     previous: Vec<f64>,
+}
+
+impl<S> Work<S> {
+    pub fn new<Op: Compliance<Scratch = S>>(op: &Op) -> Self {
+        let n = op.len();
+        Work {
+            scratch: op.scratch(),
+            mask: vec![true; n],
+            coarse_rhs: Vec::new(),
+            displacement: vec![0.0; n],
+            residual: vec![0.0; n],
+            preconditioned: vec![0.0; n],
+            applied: vec![0.0; n],
+            direction: vec![0.0; n],
+            applied_direction: vec![0.0; n],
+            previous: vec![0.0; n],
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.mask.len()
+    }
 }
 
 /// Solves for pressure / E* with mean `mean_strain` on heights `z` (m). `scale` is the height
@@ -61,48 +97,95 @@ pub(crate) fn solve<Op: Compliance>(
     scale: f64,
     tol: f64,
     max_iterations: usize,
+    work: &mut Work<Op::Scratch>,
 ) -> Outcome {
     let n = z.len();
+    assert_eq!(work.len(), n, "work vectors of the wrong size");
     let target_sum = mean_strain * n as f64;
-    let mut work = Work {
-        scratch: op.scratch(),
-        displacement: vec![0.0; n],
-        residual: vec![0.0; n],
-        preconditioned: vec![0.0; n],
-        applied: vec![0.0; n],
-        direction: vec![0.0; n],
-        applied_direction: vec![0.0; n],
-        previous: vec![0.0; n],
-    };
-    let mut p = vec![mean_strain; n];
-    let mut mask = vec![true; n];
+    let p = vec![mean_strain; n];
+    let mut mask = std::mem::take(&mut work.mask);
+    mask.fill(true);
     let mut gap = vec![0.0; n];
+    let mut coarse: Option<CoarseSpace> = None;
+    // Warm start: a few bound-constrained CG steps from full contact shed most of the points that
+    // are not in contact far more cheaply than active-set sweeps would.
+    let warm_budget = warm_up_iterations(n).min(max_iterations);
+    let start = bounded_cg(op, z, p, target_sum, scale, tol, warm_budget, work);
+    if start.converged {
+        work.mask = mask;
+        return start;
+    }
+    let warm = start.iterations;
+    let mut p = start.pressure;
+    for i in 0..n {
+        mask[i] = p[i] > 0.0 || start.gap[i] < 0.0;
+    }
+    let max_iterations = max_iterations - warm;
+    let outcome = sweeps(op, pair_sums, z, &mut p, &mut mask, &mut gap, &mut coarse, target_sum, scale, tol, max_iterations, work);
+    work.mask = mask;
+    match outcome {
+        Ok((iterations, res)) => Outcome { pressure: p, gap, iterations: iterations + warm, residual: res, converged: true },
+        Err(iterations) => {
+            let iterations = iterations + warm;
+            // The sweeps did not settle: continue from here with the bound-constrained CG.
+            for x in p.iter_mut() {
+                *x = x.max(0.0);
+            }
+            let total: f64 = p.iter().sum();
+            p.iter_mut().for_each(|x| *x *= target_sum / total);
+            let budget = (max_iterations + warm).saturating_sub(iterations);
+            let fallback = bounded_cg(op, z, p, target_sum, scale, tol, budget, work);
+            Outcome { iterations: iterations + fallback.iterations, ..fallback }
+        }
+    }
+}
+
+/// The active-set sweeps: Ok((iterations, residual)) when converged, Err(iterations) when they did
+/// not settle.
+#[allow(clippy::too_many_arguments)]
+fn sweeps<Op: Compliance>(
+    op: &Op,
+    pair_sums: &PairSums,
+    z: &[f64],
+    p: &mut [f64],
+    mask: &mut [bool],
+    gap: &mut [f64],
+    coarse: &mut Option<CoarseSpace>,
+    target_sum: f64,
+    scale: f64,
+    tol: f64,
+    max_iterations: usize,
+    work: &mut Work<Op::Scratch>,
+) -> std::result::Result<(usize, f64), usize> {
+    let n = z.len();
     let mut iterations = 0usize;
     let mut rough = true;
     let mut deflate = true;
+    // Whether work.displacement holds C p for the current p (tracked, not a fresh product).
+    let mut known = false;
+    let mut leaving: Vec<(usize, f64)> = Vec::new();
     for _sweep in 0..MAX_SWEEPS {
         let budget = max_iterations.saturating_sub(iterations);
         if budget == 0 {
             break;
         }
         let inner_tol = 0.25 * tol * scale;
-        iterations += solve_on_set(op, pair_sums, z, &mut p, &mask, inner_tol, rough, deflate, budget, &mut work);
+        // A precise solve starts from a fresh product, so that its stopping test is honest.
+        let it_sweep = solve_on_set(op, pair_sums, z, p, mask, coarse, inner_tol, rough, deflate, known && rough, budget, work);
+        iterations += it_sweep;
 
-        let approach = approach_on(op, z, &p, &mask, &mut work);
-        for i in 0..n {
-            gap[i] = work.displacement[i] + approach - z[i];
-        }
-        let mut changed = false;
-        for i in 0..n {
-            let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
-            changed |= next != mask[i];
-            mask[i] = next;
+        // Set update from the tracked C p; a set that looks settled is checked on a fresh one.
+        let mut changed = update_set(z, p, mask, gap, &work.displacement);
+        if !changed {
+            op.displacement(p, &mut work.displacement, &mut work.scratch);
+            changed = update_set(z, p, mask, gap, &work.displacement);
         }
         if !changed {
-            let res = residual(&p, &gap, scale);
+            let res = residual(p, gap, scale);
             if res <= tol {
-                return Outcome { pressure: p, gap, iterations, residual: res, converged: true };
+                return Ok((iterations, res));
             }
+            known = true;
             if !rough {
                 // A precise solve on a settled set missed tol. The coarse matrix is assembled from
                 // prefix sums whose rounding can cap the attainable accuracy: retry without it.
@@ -118,34 +201,51 @@ pub(crate) fn solve<Op: Compliance>(
             break;
         }
         // New trial set: keep the pressures of points that stay, start new points at zero.
+        leaving.clear();
         for i in 0..n {
-            p[i] = if mask[i] { p[i].max(0.0) } else { 0.0 };
+            let next = if mask[i] { p[i].max(0.0) } else { 0.0 };
+            if next != p[i] {
+                leaving.push((i, next - p[i]));
+            }
+            p[i] = next;
         }
         let total: f64 = p.iter().sum();
         if total > 0.0 {
-            p.iter_mut().for_each(|x| *x *= target_sum / total);
+            let factor = target_sum / total;
+            p.iter_mut().for_each(|x| *x *= factor);
+            known = leaving.len() <= MAX_COLUMN_UPDATES;
+            if known {
+                for &(j, delta) in &leaving {
+                    op.add_column(j, delta, &mut work.displacement);
+                }
+                work.displacement.iter_mut().for_each(|u| *u *= factor);
+            }
         } else {
             let count = mask.iter().filter(|&&m| m).count() as f64;
             (0..n).filter(|&i| mask[i]).for_each(|i| p[i] = target_sum / count);
+            known = false;
         }
     }
-    // The sweeps did not settle: continue from here with the bound-constrained CG.
-    for x in p.iter_mut() {
-        *x = x.max(0.0);
-    }
-    let total: f64 = p.iter().sum();
-    p.iter_mut().for_each(|x| *x *= target_sum / total);
-    let budget = max_iterations.saturating_sub(iterations);
-    let fallback = bounded_cg(op, z, p, target_sum, scale, tol, budget, &mut work);
-    Outcome { iterations: iterations + fallback.iterations, ..fallback }
+    Err(iterations)
 }
 
-/// Fresh displacement C p into `work.displacement`, and the rigid approach h that makes the gap
-/// zero-mean on `mask`.
-fn approach_on<Op: Compliance>(op: &Op, z: &[f64], p: &[f64], mask: &[bool], work: &mut Work<Op::Scratch>) -> f64 {
-    op.displacement(p, &mut work.displacement, &mut work.scratch);
-    let (sum, count) = (0..z.len()).filter(|&i| mask[i]).fold((0.0, 0usize), |(s, c), i| (s + work.displacement[i] - z[i], c + 1));
-    -sum / count as f64
+/// The gap for displacement `u` = C p, with the rigid approach that makes it zero-mean on `mask`,
+/// and the next trial set in `mask` (points with p <= 0 leave, penetrating points join); returns
+/// whether the set changed.
+fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> bool {
+    let n = z.len();
+    let (sum, count) = (0..n).filter(|&i| mask[i]).fold((0.0, 0usize), |(s, c), i| (s + u[i] - z[i], c + 1));
+    let approach = -sum / count as f64;
+    for i in 0..n {
+        gap[i] = u[i] + approach - z[i];
+    }
+    let mut changed = false;
+    for i in 0..n {
+        let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
+        changed |= next != mask[i];
+        mask[i] = next;
+    }
+    changed
 }
 
 /// Deflated PCG on the fixed set `mask`: C_AA p_A + h = z_A with sum p_A unchanged. Stops at
@@ -158,9 +258,11 @@ fn solve_on_set<Op: Compliance>(
     z: &[f64],
     p: &mut [f64],
     mask: &[bool],
+    cache: &mut Option<CoarseSpace>,
     abs_tol: f64,
     rough: bool,
     deflate: bool,
+    displacement_known: bool,
     max_iterations: usize,
     w: &mut Work<Op::Scratch>,
 ) -> usize {
@@ -170,34 +272,50 @@ fn solve_on_set<Op: Compliance>(
         return 0;
     }
     let islands = if deflate { runs(mask) } else { Vec::new() };
-    let coarse = if islands.len() >= 2 {
-        let unit: Vec<f64> = mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
-        op.displacement(&unit, &mut w.applied, &mut w.scratch);
+    if islands.len() >= 2 {
         let n = mask.len();
         let dim = if rough {
             (n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM)
         } else {
             (n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM)
         };
-        CoarseSpace::new(pair_sums, islands, mask, &w.applied, dim, MAX_RUN_PAIRS)
+        // The same set as the last sweep (a rough sweep that changed nothing, then the precise
+        // one): the same coarse space.
+        if !cache.as_ref().is_some_and(|c| c.is_same(&islands, dim)) {
+            let unit = if CoarseSpace::needs_displacement_of_set(islands.len(), dim, MAX_RUN_PAIRS) {
+                for (u, &m) in w.preconditioned.iter_mut().zip(mask) {
+                    *u = if m { 1.0 } else { 0.0 };
+                }
+                op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
+                Some(&w.applied[..])
+            } else {
+                None
+            };
+            *cache = CoarseSpace::new(pair_sums, islands, mask, unit, dim, MAX_RUN_PAIRS);
+        }
     } else {
-        None
-    };
-    // r = projected (z - C p) on A: the gap the approach cannot close.
-    let update_residual = |p: &[f64], w: &mut Work<Op::Scratch>| {
-        op.displacement(p, &mut w.displacement, &mut w.scratch);
+        *cache = None;
+    }
+    let coarse = cache.as_ref();
+    // r = projected (z - C p) on A: the gap the approach cannot close (C p fresh, or as tracked).
+    let update_residual = |p: &[f64], w: &mut Work<Op::Scratch>, fresh: bool| {
+        if fresh {
+            op.displacement(p, &mut w.displacement, &mut w.scratch);
+        }
         for i in 0..p.len() {
             w.residual[i] = if mask[i] { z[i] - w.displacement[i] } else { 0.0 };
         }
         project_zero_sum(&mut w.residual, mask, count);
     };
-    update_residual(p, w);
+    update_residual(p, w, !displacement_known);
     // A-DEF2 start: the coarse solve puts the right load on every island at once.
-    if let Some(coarse) = &coarse {
-        let mut q = coarse.restrict(&w.residual, 0.0);
+    if let Some(coarse) = coarse {
+        let mut q = std::mem::take(&mut w.coarse_rhs);
+        coarse.restrict(&w.residual, 0.0, &mut q);
         coarse.solve(&mut q);
         coarse.add_prolonged(&q, 1.0, mask, p);
-        update_residual(p, w);
+        w.coarse_rhs = q;
+        update_residual(p, w, true);
     }
     let start_norm = max_abs(&w.residual);
     let stop = if rough { abs_tol.max(ROUGH_REDUCTION * start_norm) } else { abs_tol };
@@ -209,12 +327,14 @@ fn solve_on_set<Op: Compliance>(
         op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
         mask_and_project(&mut w.preconditioned, mask, count);
         // P^T y = y - Z E^-1 Z^T C y.
-        if let Some(coarse) = &coarse {
+        if let Some(coarse) = coarse {
             op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
             let total: f64 = (0..p.len()).filter(|&i| mask[i]).map(|i| w.applied[i]).sum();
-            let mut q = coarse.restrict(&w.applied, total);
+            let mut q = std::mem::take(&mut w.coarse_rhs);
+            coarse.restrict(&w.applied, total, &mut q);
             coarse.solve(&mut q);
             coarse.add_prolonged(&q, -1.0, mask, &mut w.preconditioned);
+            w.coarse_rhs = q;
         }
         let rho = dot(&w.residual, &w.preconditioned);
         if !(rho > 0.0) {
@@ -223,12 +343,20 @@ fn solve_on_set<Op: Compliance>(
         // Polak-Ribiere (flexible) beta: equal to Fletcher-Reeves in exact arithmetic, and robust
         // when the coarse solve makes the preconditioner slightly inexact.
         let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-        for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
-            *d = y + beta * *d;
+        if iterations == 0 {
+            // Not beta * d: d holds the last solve's direction (`+ 0.0` as y + 0 * d would give).
+            for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
+                *d = y + 0.0;
+            }
+        } else {
+            for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
+                *d = y + beta * *d;
+            }
         }
         w.previous.copy_from_slice(&w.preconditioned);
+        // C d on all points: its projection on A updates r, all of it tracks C p.
         op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-        mask_and_project(&mut w.applied_direction, mask, count);
+        let mean = (0..p.len()).filter(|&i| mask[i]).map(|i| w.applied_direction[i]).sum::<f64>() / count as f64;
         let curvature = dot(&w.direction, &w.applied_direction);
         if !(curvature > 0.0) {
             break;
@@ -236,7 +364,10 @@ fn solve_on_set<Op: Compliance>(
         let alpha = rho / curvature;
         for i in 0..p.len() {
             p[i] += alpha * w.direction[i];
-            w.residual[i] -= alpha * w.applied_direction[i];
+            w.displacement[i] += alpha * w.applied_direction[i];
+            if mask[i] {
+                w.residual[i] -= alpha * (w.applied_direction[i] - mean);
+            }
         }
         rho_before = rho;
         iterations += 1;
@@ -289,7 +420,8 @@ fn bounded_cg<Op: Compliance>(
         }
         let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
         for i in 0..n {
-            w.direction[i] = if free[i] { w.preconditioned[i] + beta * w.direction[i] } else { 0.0 };
+            let previous = if iterations == 0 { 0.0 } else { w.direction[i] };
+            w.direction[i] = if free[i] { w.preconditioned[i] + beta * previous } else { 0.0 };
         }
         project_zero_sum(&mut w.direction, &free, free_count);
         w.previous.copy_from_slice(&w.preconditioned);

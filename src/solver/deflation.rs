@@ -11,9 +11,7 @@
 //! The coarse matrix E = Z^T C Z needs the kernel summed over pairs of intervals; with second
 //! prefix sums of the kernel each entry costs O(1), so E costs O(islands^2), never an FFT.
 
-use faer::linalg::solvers::Llt;
-use faer::prelude::*;
-use faer::{Mat, Side};
+use faer::{MatRef, Side};
 
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
@@ -85,22 +83,28 @@ pub(crate) struct CoarseSpace {
     /// Group g holds runs[bounds[g]..bounds[g + 1]].
     bounds: Vec<usize>,
     weights: Vec<f64>,
-    factor: Llt<f64>,
+    /// Lower-triangular Cholesky factor L of E (row-major, dim x dim): faer factors, the
+    /// per-iteration solves with one right-hand side are done here (cheaper at these sizes).
+    factor: Vec<f64>,
+    /// The `max_dim` it was built with, and whether every run of the set is in it.
+    max_dim: usize,
+    complete: bool,
 }
 
 impl CoarseSpace {
     /// None when there is nothing to deflate (a single island) or E is not numerically positive.
-    /// `displacement_of_set` is C 1_A, the displacement under unit pressure on the whole set.
+    /// `displacement_of_set` is C 1_A, the displacement under unit pressure on the whole set; it is
+    /// read only when not every run is deflated (see [`CoarseSpace::needs_displacement_of_set`]).
     pub fn new(
         pair_sums: &PairSums,
         mut runs: Vec<(usize, usize)>,
         mask: &[bool],
-        displacement_of_set: &[f64],
+        displacement_of_set: Option<&[f64]>,
         max_dim: usize,
         max_run_pairs: usize,
     ) -> Option<Self> {
         let all_runs = runs.len();
-        if all_runs > max_dim && all_runs * all_runs > max_run_pairs {
+        if Self::truncates(all_runs, max_dim, max_run_pairs) {
             runs.sort_by_key(|&(s, e)| std::cmp::Reverse(e - s));
             runs.truncate(max_dim);
             runs.sort_unstable();
@@ -109,37 +113,91 @@ impl CoarseSpace {
         if groups < 2 {
             return None;
         }
+        let complete = runs.len() == all_runs;
         let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
         let group_of: Vec<usize> = (0..groups).flat_map(|g| std::iter::repeat(g).take(bounds[g + 1] - bounds[g])).collect();
         let m = mask.iter().filter(|&&m| m).count() as f64;
         let group_len = |g: usize| runs[bounds[g]..bounds[g + 1]].iter().map(|(s, e)| e - s).sum::<usize>();
         let weights: Vec<f64> = (0..groups).map(|g| group_len(g) as f64 / m).collect();
         // When every run is covered the group indicators sum to 1_A: one zero-sum vector is redundant.
-        let columns = if runs.len() == all_runs { groups - 1 } else { groups };
+        let columns = if complete { groups - 1 } else { groups };
         // E = G - row w^T - w row^T + total w w^T, G = Z^T C Z, row = Z^T C 1_A, total = 1_A^T C 1_A.
         let mut g_matrix = vec![0.0; groups * groups];
-        for (j, &rj) in runs.iter().enumerate() {
-            let a = group_of[j];
-            for (k, &rk) in runs.iter().enumerate().skip(j) {
-                let value = pair_sums.block(rj, rk);
-                let b = group_of[k];
-                g_matrix[a * groups + b] += value;
-                if j != k {
-                    g_matrix[b * groups + a] += value;
+        if groups == runs.len() {
+            // One run per group: the upper triangle, then its mirror.
+            for (j, &rj) in runs.iter().enumerate() {
+                let row = &mut g_matrix[j * groups..(j + 1) * groups];
+                for (k, &rk) in runs.iter().enumerate().skip(j) {
+                    row[k] = pair_sums.block(rj, rk);
+                }
+            }
+            for a in 0..groups {
+                for b in 0..a {
+                    g_matrix[a * groups + b] = g_matrix[b * groups + a];
+                }
+            }
+        } else {
+            for (j, &rj) in runs.iter().enumerate() {
+                let a = group_of[j];
+                for (k, &rk) in runs.iter().enumerate().skip(j) {
+                    let value = pair_sums.block(rj, rk);
+                    let b = group_of[k];
+                    g_matrix[a * groups + b] += value;
+                    if j != k {
+                        g_matrix[b * groups + a] += value;
+                    }
                 }
             }
         }
-        let row: Vec<f64> = (0..groups)
-            .map(|g| runs[bounds[g]..bounds[g + 1]].iter().map(|&(s, e)| displacement_of_set[s..e].iter().sum::<f64>()).sum())
-            .collect();
-        let total: f64 = displacement_of_set.iter().zip(mask).filter(|(_, &m)| m).map(|(u, _)| u).sum();
-        let e = Mat::from_fn(columns, columns, |a, b| {
-            g_matrix[a * groups + b] - row[a] * weights[b] - weights[a] * row[b] + total * weights[a] * weights[b]
-        });
-        let factor = e.llt(Side::Lower).ok()?;
+        let (row, total): (Vec<f64>, f64) = if complete {
+            // 1_A is the sum of the group indicators, so Z^T C 1_A are the row sums of G.
+            let row: Vec<f64> = (0..groups).map(|a| g_matrix[a * groups..(a + 1) * groups].iter().sum()).collect();
+            let total = row.iter().sum();
+            (row, total)
+        } else {
+            let u = displacement_of_set.expect("C 1_A is needed when some runs are left out");
+            let row = (0..groups)
+                .map(|g| runs[bounds[g]..bounds[g + 1]].iter().map(|&(s, e)| u[s..e].iter().sum::<f64>()).sum())
+                .collect();
+            let total = u.iter().zip(mask).filter(|(_, &m)| m).map(|(u, _)| u).sum();
+            (row, total)
+        };
+        // E in place of G (symmetric, so row- and column-major alike), then its Cholesky factor.
+        let mut e = vec![0.0; columns * columns];
+        for a in 0..columns {
+            let (ra, wa) = (row[a], weights[a]);
+            let g_row = &g_matrix[a * groups..a * groups + columns];
+            let e_row = &mut e[a * columns..(a + 1) * columns];
+            for b in 0..columns {
+                e_row[b] = g_row[b] - ra * weights[b] - wa * row[b] + total * wa * weights[b];
+            }
+        }
+        let llt = MatRef::from_column_major_slice(&e, columns, columns).llt(Side::Lower).ok()?;
+        let l = llt.L();
+        let mut factor = e;
+        for a in 0..columns {
+            for b in 0..=a {
+                factor[a * columns + b] = l[(a, b)];
+            }
+        }
         let mut bounds = bounds;
         bounds.truncate(columns + 1);
-        Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor })
+        Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete })
+    }
+
+    /// Whether only the largest runs are kept (then C 1_A is needed to build the space).
+    fn truncates(runs: usize, max_dim: usize, max_run_pairs: usize) -> bool {
+        runs > max_dim && runs * runs > max_run_pairs
+    }
+
+    /// Whether [`CoarseSpace::new`] reads `displacement_of_set` for this many runs.
+    pub fn needs_displacement_of_set(runs: usize, max_dim: usize, max_run_pairs: usize) -> bool {
+        Self::truncates(runs, max_dim, max_run_pairs)
+    }
+
+    /// Whether `new(runs, .., max_dim, ..)` would build this very space again.
+    pub fn is_same(&self, runs: &[(usize, usize)], max_dim: usize) -> bool {
+        self.complete && self.runs == runs && (self.max_dim == max_dim || runs.len() <= max_dim.min(self.max_dim))
     }
 
     pub fn dim(&self) -> usize {
@@ -150,31 +208,64 @@ impl CoarseSpace {
         &self.runs[self.bounds[g]..self.bounds[g + 1]]
     }
 
-    /// Z0^T v for v supported on the contact set (its sum over the set is `v_total`).
-    pub fn restrict(&self, v: &[f64], v_total: f64) -> Mat<f64> {
-        Mat::from_fn(self.dim(), 1, |g, _| {
+    /// Z0^T v for v supported on the contact set (its sum over the set is `v_total`), into `out`.
+    pub fn restrict(&self, v: &[f64], v_total: f64, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend((0..self.dim()).map(|g| {
             self.group(g).iter().map(|&(s, e)| v[s..e].iter().sum::<f64>()).sum::<f64>() - self.weights[g] * v_total
-        })
+        }));
     }
 
     /// E^-1 y in place.
-    pub fn solve(&self, y: &mut Mat<f64>) {
-        self.factor.solve_in_place(y.as_mut());
+    pub fn solve(&self, y: &mut [f64]) {
+        cholesky_solve(&self.factor, self.dim(), y);
     }
 
     /// out += factor * Z0 q on the contact set `mask`.
-    pub fn add_prolonged(&self, q: &Mat<f64>, factor: f64, mask: &[bool], out: &mut [f64]) {
-        let shift: f64 = factor * (0..self.dim()).map(|j| q[(j, 0)] * self.weights[j]).sum::<f64>();
+    pub fn add_prolonged(&self, q: &[f64], factor: f64, mask: &[bool], out: &mut [f64]) {
+        let shift: f64 = factor * q.iter().zip(&self.weights).map(|(q, w)| q * w).sum::<f64>();
         for (o, &m) in out.iter_mut().zip(mask) {
             if m {
                 *o -= shift;
             }
         }
         for g in 0..self.dim() {
-            let value = factor * q[(g, 0)];
+            let value = factor * q[g];
             for &(s, e) in self.group(g) {
                 out[s..e].iter_mut().for_each(|o| *o += value);
             }
+        }
+    }
+}
+
+/// Dot product with four interleaved partial sums (vectorises; fixed order, so deterministic).
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in a4.zip(b4) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+        acc[2] += x[2] * y[2];
+        acc[3] += x[3] * y[3];
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// y <- (L L^T)^-1 y.
+fn cholesky_solve(l: &[f64], n: usize, y: &mut [f64]) {
+    for i in 0..n {
+        let row = &l[i * n..i * n + i + 1];
+        y[i] = (y[i] - dot4(&row[..i], &y[..i])) / row[i];
+    }
+    for i in (0..n).rev() {
+        let row = &l[i * n..i * n + i + 1];
+        let xi = y[i] / row[i];
+        y[i] = xi;
+        for (yj, &lij) in y[..i].iter_mut().zip(&row[..i]) {
+            *yj -= lij * xi;
         }
     }
 }

@@ -14,7 +14,8 @@ pub mod cg;
 mod deflation;
 pub mod direct;
 
-use crate::compliance::{Compliance, FiniteCompliance, PeriodicCompliance};
+use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance};
+use crate::kernel::CirculantScratch;
 use deflation::PairSums;
 use crate::error::{invalid, Result};
 use crate::kernel::KernelKind;
@@ -172,6 +173,21 @@ enum Model {
     Finite(FiniteCompliance),
 }
 
+/// Work vectors and FFT scratch of one thread for [`ContactSolver::solve_in`]: reusing one across
+/// solves saves their allocation. Results do not depend on what a workspace held before.
+#[derive(Default)]
+pub struct Workspace {
+    inner: WorkspaceInner,
+}
+
+#[derive(Default)]
+enum WorkspaceInner {
+    #[default]
+    Empty,
+    Periodic(cg::Work<CirculantScratch>),
+    Finite(cg::Work<FiniteScratch>),
+}
+
 impl ContactSolver {
     pub fn new(n: usize, dx: f64, options: SolverOptions) -> Result<Self> {
         options.validate()?;
@@ -212,19 +228,38 @@ impl ContactSolver {
 
     /// Solves one profile (heights in m) for one rubber under mean pressure (Pa).
     pub fn solve(&self, heights: &[f64], material: Material, mean_pressure: f64) -> Result<ContactSolution> {
+        self.solve_in(&mut Workspace::default(), heights, material, mean_pressure)
+    }
+
+    /// [`ContactSolver::solve`] with the work vectors of `workspace` (allocated on first use and
+    /// kept for the next call); the result is bitwise the same.
+    pub fn solve_in(&self, workspace: &mut Workspace, heights: &[f64], material: Material, mean_pressure: f64) -> Result<ContactSolution> {
         if heights.len() != self.n {
             return invalid(format!("heights has {} points, the solver was built for {}", heights.len(), self.n));
         }
         validate_problem(heights, self.dx, mean_pressure)?;
         match &self.model {
-            Model::Periodic(op) => self.solve_with(op, heights, material, mean_pressure),
-            Model::Finite(op) => self.solve_with(op, heights, material, mean_pressure),
+            Model::Periodic(op) => {
+                if !matches!(&workspace.inner, WorkspaceInner::Periodic(w) if w.len() == self.n) {
+                    workspace.inner = WorkspaceInner::Periodic(cg::Work::new(op));
+                }
+                let WorkspaceInner::Periodic(work) = &mut workspace.inner else { unreachable!() };
+                self.solve_with(op, work, heights, material, mean_pressure)
+            }
+            Model::Finite(op) => {
+                if !matches!(&workspace.inner, WorkspaceInner::Finite(w) if w.len() == self.n) {
+                    workspace.inner = WorkspaceInner::Finite(cg::Work::new(op));
+                }
+                let WorkspaceInner::Finite(work) = &mut workspace.inner else { unreachable!() };
+                self.solve_with(op, work, heights, material, mean_pressure)
+            }
         }
     }
 
     fn solve_with<Op: Compliance>(
         &self,
         op: &Op,
+        work: &mut cg::Work<Op::Scratch>,
         heights: &[f64],
         material: Material,
         mean_pressure: f64,
@@ -244,7 +279,7 @@ impl ContactSolver {
         let outcome = match self.options.method {
             Method::ConjugateGradient => {
                 let pair_sums = self.pair_sums.as_ref().expect("built for the CG method");
-                cg::solve(op, pair_sums, &z, strain, scale, self.options.tol, self.options.max_iterations)
+                cg::solve(op, pair_sums, &z, strain, scale, self.options.tol, self.options.max_iterations, work)
             }
             Method::Direct => direct::solve(op, &z, strain, scale)?,
         };
