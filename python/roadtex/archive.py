@@ -806,11 +806,13 @@ class _Progress:
 def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions) -> dict[str, Path]:
     """Concatenates the per-run tables of the runs in ``manifest`` (in its order) into the combined tables.
 
-    Only runs whose status is current for ``options`` count; stale folders are ignored.
+    Only runs whose status is current for ``options`` count; stale folders are ignored. The
+    tables are streamed from the per-run files to the combined file (polars' streaming sink), so
+    memory does not grow with the archive.
     """
     out = Path(out_dir)
     options_fingerprint = options.fingerprint()
-    parts: dict[str, list[pl.DataFrame]] = {"segments": [], "bands": [], "runs": []}
+    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": []}
     errors: list[dict[str, Any]] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
@@ -820,15 +822,19 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         if status["state"] == "error":
             errors.append({name: status.get(name) for name in ERROR_SCHEMA})
             continue
-        parts["segments"].append(pl.read_parquet(run_dir / "segments.parquet"))
-        parts["bands"].append(pl.read_parquet(run_dir / "bands.parquet"))
-        parts["runs"].append(pl.read_parquet(run_dir / "run.parquet"))
+        parts["segments"].append(run_dir / "segments.parquet")
+        parts["bands"].append(run_dir / "bands.parquet")
+        parts["runs"].append(run_dir / "run.parquet")
     schemas = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     written = {}
-    for name, frames in parts.items():
-        table = pl.concat(frames) if frames else pl.DataFrame(schema=schemas[name])
+    for name, files in parts.items():
         path = out / f"{name}.parquet"
-        _write_atomically(path, lambda p, t=table: t.write_parquet(p, statistics=True))
+        if files:
+            query = pl.scan_parquet(files, schema=schemas[name])
+            _write_atomically(path, lambda p, q=query: q.sink_parquet(p, statistics=True))
+        else:
+            empty = pl.DataFrame(schema=schemas[name])
+            _write_atomically(path, lambda p, t=empty: t.write_parquet(p, statistics=True))
         written[name] = path
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
     _write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p))

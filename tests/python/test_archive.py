@@ -132,6 +132,9 @@ def test_tables_have_the_documented_schemas_and_one_row_per_item(reference: Path
     bands_per_row = t["bands"].group_by("run_id", "segment", "youngs_modulus").len()["len"].unique()
     assert bands_per_row.len() == 1 and bands_per_row[0] >= 5
     assert t["segments"].select(pl.struct("run_id", "segment", "youngs_modulus").is_unique().all()).item()
+    # Manifest order, then segment, then modulus in the order given: the same whatever finished first.
+    assert t["segments"]["run_id"].unique(maintain_order=True).to_list() == ["run00", "run01", "run02"]
+    assert t["segments"].equals(t["segments"].sort("run_id", "segment", "youngs_modulus"))
 
 
 def test_segment_rows_hold_physics_that_could_fail(reference: Path) -> None:
