@@ -5,6 +5,10 @@
 //!   (hurst 0.8, rms slope 0.1, L = 1, E* = 1, mean pressure 0.0105, cutoff 0.25) on a prebuilt
 //!   `ContactSolver`: the solve alone, not the kernel build.
 //! * `westergaard/4096`: the wavy surface at P = 0.3 p*, tol 1e-10, prebuilt solver.
+//! * `batch_1000/threads`: the bulk job's unit of work, `batch::solve_many` on 64 road segments of
+//!   N = 1,000 (self-affine, 0.5 m at 0.5 mm, seeds 0..64) x 4 moduli (1, 2, 5, 10 MPa), P = 0.2 MPa,
+//!   tol 1e-6, on 1 and 2 threads; criterion reports time per batch of 256 solves (and
+//!   throughput in solves per second).
 //!
 //! N runs over 2^10, 2^12, ..., 2^20. Before the solve group every size is timed once (one cold
 //! solve, printed with its iterations and residual, and the `ContactSolver::new` set-up time, which
@@ -20,6 +24,8 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
+use criterion::Throughput;
+use roadtex::batch::{solve_many, Segments};
 use roadtex::compliance::PeriodicCompliance;
 use roadtex::reference::Westergaard;
 use roadtex::solver::{ContactSolver, Material, SolverOptions};
@@ -156,5 +162,30 @@ fn westergaard(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kernel_build, solve_self_affine, westergaard);
+fn batch_1000(c: &mut Criterion) {
+    let (n, segments, dx) = (1000usize, 64usize, 5e-4);
+    let moduli = [1e6, 2e6, 5e6, 1e7];
+    let heights: Vec<f64> = (0..segments as u64).flat_map(|seed| self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, CUTOFF, seed)).collect();
+    let options = SolverOptions { tol: 1e-6, ..Default::default() };
+    let run = |threads: usize| {
+        solve_many(Segments { heights: &heights, len: n }, dx, &moduli, 0.5, 2e5, options, Some(threads)).expect("batch")
+    };
+    let sols = run(1);
+    let iterations: usize = sols.iter().map(|s| s.iterations).sum();
+    eprintln!(
+        "batch_1000: {} solves, mean {:.2} iterations, all converged {}",
+        sols.len(),
+        iterations as f64 / sols.len() as f64,
+        sols.iter().all(|s| s.converged)
+    );
+    let mut group = c.benchmark_group("batch_1000");
+    group.throughput(Throughput::Elements((segments * moduli.len()) as u64));
+    configure(&mut group, Duration::from_millis(100));
+    for threads in [1usize, 2] {
+        group.bench_with_input(BenchmarkId::from_parameter(threads), &threads, |b, &threads| b.iter(|| run(black_box(threads))));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, kernel_build, solve_self_affine, westergaard, batch_1000);
 criterion_main!(benches);
