@@ -5,6 +5,7 @@ Units are SI: heights and dx in metres, moduli and pressures in pascals.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Iterator, Literal, Sequence
 
@@ -18,6 +19,61 @@ Method = Literal["cg", "direct"]
 
 class ConvergenceError(RuntimeError):
     """The solver stopped at ``max_iterations`` before reaching ``tol``."""
+
+
+class RoadtexWarning(UserWarning):
+    """Base class of the warnings roadtex gives about input it accepts but doubts."""
+
+
+class ImplausibleTextureWarning(RoadtexWarning):
+    """The heights are implausible for a road texture profile in metres (given in mm by mistake?).
+
+    The solve goes ahead as asked; see :data:`PLAUSIBLE_PEAK_TO_VALLEY`, :data:`PLAUSIBLE_RMS` and
+    :data:`PLAUSIBLE_MEDIAN_SLOPE` for when it is raised.
+    """
+
+
+#: Peak-to-valley height (m) of a profile, its least-squares line removed, above which
+#: :func:`contact` warns. Road texture, megatexture included (wavelengths up to 0.5 m), has
+#: amplitudes of 0.1 to 50 mm (ISO 13473-1); a texture profile written in millimetres shows 1 to 50.
+PLAUSIBLE_PEAK_TO_VALLEY = 1.0
+#: rms height (m), least-squares line removed, above which :func:`contact` warns (same reason).
+PLAUSIBLE_RMS = 0.25
+#: Median |dz/dx| above which :func:`contact` warns: half the profile steeper than 87 degrees. Road
+#: texture has median slopes well under 1 (pore walls and chip edges are few); heights in mm on a
+#: grid in m have slopes 1000 times the true ones, which also catches fine textures in mm.
+PLAUSIBLE_MEDIAN_SLOPE = 20.0
+
+
+def _warn_if_implausible(heights: np.ndarray, dx: float, name: str) -> None:
+    """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile.
+
+    Looks at each row with its least-squares line removed. Rows with NaN or inf are left to the
+    input checks of the solver.
+    """
+    rows = np.atleast_2d(heights)
+    n = rows.shape[1]
+    if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
+        return
+    with np.errstate(all="ignore"):
+        x = np.arange(n) - 0.5 * (n - 1)
+        centred = rows - rows.mean(axis=1, keepdims=True)
+        detrended = centred - np.outer(centred @ x / (x @ x), x)
+        peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
+        rms = np.sqrt(np.mean(detrended**2, axis=1))
+        median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
+        bad = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
+               | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
+    if not bad.any():
+        return
+    first = int(np.argmax(bad))
+    where = f"{name} (segment {first}, {int(bad.sum())} of {bad.size} segments)" if heights.ndim == 2 else name
+    warnings.warn(
+        f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
+        f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
+        f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
+        "Heights and dx must be in metres: were the heights given in millimetres? Solving as given.",
+        ImplausibleTextureWarning, stacklevel=3)
 
 
 class ContactMeasures:
@@ -188,10 +244,16 @@ def contact(
     Raises:
         ValueError: bad input, with the argument and the problem named.
         ConvergenceError: see ``raise_on_nonconvergence``.
+
+    Warns:
+        ImplausibleTextureWarning: the heights cannot be a road texture profile in metres
+            (peak-to-valley above 1 m, rms above 0.25 m, or median slope above 20, linear trend
+            removed): probably millimetres. The problem is still solved as given.
     """
     z = _as_float_array(heights, "heights", 1)
     dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
                             _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
+    _warn_if_implausible(z, dx_f, "heights")
     pressure, envelope, iterations, residual, converged = _core.solve(
         z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, _scalar(tol, "tol"),
         _positive_int(max_iterations, "max_iterations"),
@@ -240,6 +302,7 @@ def contact_many(
         raise ValueError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
     threads = None if threads is None else _positive_int(threads, "threads")
     dx_f, p_f, nu_f = _scalar(dx, "dx"), _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson")
+    _warn_if_implausible(heights, dx_f, "segments")
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         _scalar(tol, "tol"), _positive_int(max_iterations, "max_iterations"), threads,
