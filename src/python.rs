@@ -111,7 +111,7 @@ type SolvedMany<'py> = (
 
 /// Every (segment, modulus) pair in parallel. Arrays are indexed [segment, modulus, ...].
 #[pyfunction]
-#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None))]
+#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false))]
 #[allow(clippy::too_many_arguments)]
 fn solve_many<'py>(
     py: Python<'py>,
@@ -126,6 +126,7 @@ fn solve_many<'py>(
     tol: f64,
     max_iterations: usize,
     threads: Option<usize>,
+    warm_start: bool,
 ) -> PyResult<SolvedMany<'py>> {
     let options = options(periodic, kernel, method, tol, max_iterations)?;
     let view = segments.as_array();
@@ -135,7 +136,7 @@ fn solve_many<'py>(
     let m = moduli.len();
     let solutions = py
         .detach(|| {
-            solve_many_core(Segments { heights: &heights, len }, dx, &moduli, poisson, mean_pressure, options, threads)
+            solve_many_core(Segments { heights: &heights, len }, dx, &moduli, poisson, mean_pressure, options, threads, warm_start)
         })
         .map_err(to_py_err)?;
     for (k, s) in solutions.iter().enumerate() {

@@ -12,7 +12,7 @@ def solve(
 def solve_many(
     segments: npt.NDArray[np.float64], dx: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
     mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
-    threads: int | None = None,
+    threads: int | None = None, warm_start: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
            npt.NDArray[np.bool_]]: ...
 def influence_coefficients(n: int, dx: float, periodic: bool) -> npt.NDArray[np.float64]: ...

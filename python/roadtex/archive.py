@@ -161,6 +161,8 @@ class ProcessingOptions:
             coarse chip seals; None skips).
         tol: solver tolerance (relative residual, see :func:`roadtex.contact`). 1e-6 of a few
             millimetres of texture is a few nanometres, far below what the spectra resolve.
+            Each segment's moduli are solved in the order given, each from the previous one's
+            solution (``contact_many(warm_start=True)``): every result meets ``tol``.
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
         band_kind: "third_octave" or "octave".
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
@@ -472,7 +474,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         heights = segments.heights[chunk]
         batch = _stage("solve", lambda: contact_many(
             heights, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
-            max_iterations=options.max_iterations, threads=threads, raise_on_nonconvergence=False))
+            max_iterations=options.max_iterations, threads=threads, warm_start=True,
+            raise_on_nonconvergence=False))
         count = heights.shape[0]
         envelopes = batch.envelope.reshape(count * n_moduli, n_points)
         pressures = batch.pressure.reshape(count * n_moduli, n_points)

@@ -97,29 +97,41 @@ pub(crate) fn solve<Op: Compliance>(
     scale: f64,
     tol: f64,
     max_iterations: usize,
+    initial: Option<&[f64]>,
     work: &mut Work<Op::Scratch>,
 ) -> Outcome {
     let n = z.len();
     assert_eq!(work.len(), n, "work vectors of the wrong size");
     let target_sum = mean_strain * n as f64;
-    let p = vec![mean_strain; n];
     let mut mask = std::mem::take(&mut work.mask);
-    mask.fill(true);
     let mut gap = vec![0.0; n];
     let mut coarse: Option<CoarseSpace> = None;
-    // Warm start: a few bound-constrained CG steps from full contact shed most of the points that
-    // are not in contact far more cheaply than active-set sweeps would.
-    let warm_budget = warm_up_iterations(n).min(max_iterations);
-    let start = bounded_cg(op, z, p, target_sum, scale, tol, warm_budget, work);
-    if start.converged {
-        work.mask = mask;
-        return start;
-    }
-    let warm = start.iterations;
-    let mut p = start.pressure;
-    for i in 0..n {
-        mask[i] = p[i] > 0.0 || start.gap[i] < 0.0;
-    }
+    let (mut p, warm) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
+        // A neighbouring solution (the same profile under another modulus): its contact set is
+        // close to this one, so the sweeps start from it with its pressure scaled to this load.
+        Some(q) => {
+            let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
+            let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
+            for i in 0..n {
+                mask[i] = p[i] > 0.0;
+            }
+            (p, 0)
+        }
+        None => {
+            // A few bound-constrained CG steps from full contact shed most of the points that are
+            // not in contact far more cheaply than active-set sweeps would.
+            let warm_budget = warm_up_iterations(n).min(max_iterations);
+            let start = bounded_cg(op, z, vec![mean_strain; n], target_sum, scale, tol, warm_budget, work);
+            if start.converged {
+                work.mask = mask;
+                return start;
+            }
+            for i in 0..n {
+                mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
+            }
+            (start.pressure, start.iterations)
+        }
+    };
     let max_iterations = max_iterations - warm;
     let outcome = sweeps(op, pair_sums, z, &mut p, &mut mask, &mut gap, &mut coarse, target_sum, scale, tol, max_iterations, work);
     work.mask = mask;
@@ -275,9 +287,9 @@ fn solve_on_set<Op: Compliance>(
     if islands.len() >= 2 {
         let n = mask.len();
         let dim = if rough {
-            (n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM)
+            (n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM).min((n / 16).max(32))
         } else {
-            (n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM)
+            (n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM).min((n / 8).max(64))
         };
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one): the same coarse space.

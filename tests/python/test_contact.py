@@ -438,3 +438,24 @@ def test_contact_many_stiffer_rubber_touches_less(segments):
     for s in range(3):
         fractions = [batch[s, m].contact_fraction for m in range(3)]
         assert fractions[0] > fractions[1] > fractions[2], fractions
+
+
+def test_warm_start_across_moduli_meets_tol_and_agrees_with_cold_solves() -> None:
+    """contact_many(warm_start=True) starts each modulus from the previous one's solution: every
+    result must still meet tol on its own terms, agree with the cold solve to the accuracy tol
+    allows, and stay bitwise the same whatever the thread count."""
+    rng = np.random.default_rng(11)
+    n, dx = 1000, 5e-4
+    segments = np.stack([self_affine_profile(n, n * dx, hurst=0.8, rms_slope=0.2, seed=int(s))
+                         for s in rng.integers(0, 10_000, 6)])
+    moduli = [1e6, 2e6, 5e6, 1e7]
+    cold = roadtex.contact_many(segments, dx, moduli, TYRE_P, tol=1e-9, threads=1)
+    warm = roadtex.contact_many(segments, dx, moduli, TYRE_P, tol=1e-9, threads=1, warm_start=True)
+    warm2 = roadtex.contact_many(segments, dx, moduli, TYRE_P, tol=1e-9, threads=2, warm_start=True)
+    assert warm.converged.all() and (warm.residual <= 1e-9).all()
+    assert np.array_equal(warm.pressure, warm2.pressure) and np.array_equal(warm.iterations, warm2.iterations)
+    assert np.allclose(warm.pressure.mean(axis=2), TYRE_P, rtol=1e-12)
+    ptv = np.ptp(segments, axis=1)[:, None, None]
+    assert np.max(np.abs(warm.envelope - cold.envelope) / ptv) < 1e-7
+    assert np.array_equal(warm.pressure[:, 0], cold.pressure[:, 0])  # the first modulus starts cold
+    assert warm.iterations[:, 1:].sum() < cold.iterations[:, 1:].sum()
