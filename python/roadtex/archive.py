@@ -591,9 +591,13 @@ def _write_atomically(path: Path, write: Callable[[Path], None]) -> None:
         with open(temporary, "rb+") as stream:
             os.fsync(stream.fileno())
         os.replace(temporary, path)
-    except OSError as exc:
+    except Exception as exc:
+        # polars reports a full disk as its own ComputeError ("... os error 28"), not OSError:
+        # any failure to write output is a write failure, and stops the job.
         temporary.unlink(missing_ok=True)
-        raise ArchiveWriteError(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
+        code = exc.errno if isinstance(exc, OSError) else None
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise ArchiveWriteError(code, f"cannot write {path}: {reason}") from exc
 
 
 def _write_json(path: Path, payload: dict[str, Any]) -> None:

@@ -763,6 +763,11 @@ def _read_captif(data: bytes, name: str, options: dict) -> _Read:
     body = data[ends[marker + 1]:]
     if not body or body.isspace():
         raise ValueError(f"{name}: CAPTIF file has a header but no data rows")
+    if not body.endswith(b"\n"):
+        # The profilometer ends every row with a line end: without one, the file was cut, and
+        # possibly inside a number (3.144 read as 3.1), which no per-value check can see.
+        raise ValueError(f"{name}: CAPTIF file ends inside a data row (no line end after its last row): "
+                         "the file is truncated")
     table, absent = _parse_table(body, "\t", 3, name, marker + 2)
     missing = np.flatnonzero(absent.any(axis=1) | np.isnan(table[:, 1]))
     if missing.size:
