@@ -99,7 +99,7 @@ def elastic_displacement(pressure: np.ndarray, dx: float, e_star: float, *, peri
 
 def check_contact(result: roadtex.ContactResult, *, periodic: bool = True, kernel: str = "element",
                   method: str = "cg", tol: float = 1e-10, max_iterations: int | None = None,
-                  beyond_numpy: bool = False) -> None:
+                  beyond_numpy: bool = False, load_balance: float = LOAD_BALANCE) -> None:
     """The contract of a returned contact result (see the module docstring).
 
     Always: finite values, p >= 0, mean(p) = P, envelope >= heights and == heights where p > 0,
@@ -118,7 +118,7 @@ def check_contact(result: roadtex.ContactResult, *, periodic: bool = True, kerne
     assert math.isfinite(result.residual) and result.residual >= 0.0, f"residual {result.residual}"
     assert p.min() >= 0.0, f"negative pressure {p.min()}"
     balance = p.mean() / result.mean_pressure - 1.0
-    assert abs(balance) <= LOAD_BALANCE, f"mean(p)/P - 1 = {balance:.3e}"
+    assert abs(balance) <= load_balance, f"mean(p)/P - 1 = {balance:.3e}"
     assert np.all(s >= z), "envelope below the profile"
     assert np.array_equal(s[p > 0], z[p > 0]), "envelope leaves the profile where p > 0"
     if max_iterations is not None and method == "cg":  # the direct solve counts sweeps, uncapped
@@ -270,7 +270,9 @@ def test_absurd_magnitudes_raise_a_value_error_or_are_right(shape, log_scale, lo
     except ValueError as exc:
         assert str(exc).strip()
         return
-    check_contact(result, periodic=periodic, tol=1e-8, max_iterations=500, beyond_numpy=True)
+    # Pressures near the bottom of double precision (P = 1e-300 Pa) lose digits: the binding
+    # lets through a load balance to 1e-9 (src/python.rs, check_numbers).
+    check_contact(result, periodic=periodic, tol=1e-8, max_iterations=500, beyond_numpy=True, load_balance=1e-9)
 
 
 def test_f1_heights_spanning_1e160_m_raise_instead_of_nan_flagged_converged():
@@ -402,11 +404,15 @@ def test_band_levels_add_up_scale_and_ignore_offsets(rows, log_scale, dx, kind):
     empty = levels.bands["lines"].to_numpy() == 0
     assert np.all(np.isnan(ms[:, empty])) and np.all(ms[:, ~empty] >= 0)
     variance = signals.var(axis=1)
-    assert np.all(np.nansum(ms, axis=1) <= variance * (1 + 1e-9) + 1e-300)
+    # Rounding of the FFT: about eps |x| per line, so eps^2 x^2 in power (it shows on constant rows).
+    rounding = 1e-24 * float(np.max(signals**2)) * n
+    assert np.all(np.nansum(ms, axis=1) <= variance * (1 + 1e-9) + rounding)
     scaled = band_levels(3.0 * signals, dx, kind=kind, periodic=True).mean_square
-    np.testing.assert_allclose(scaled[:, ~empty], 9.0 * ms[:, ~empty], rtol=1e-9, atol=1e-12 * variance.max())
+    np.testing.assert_allclose(scaled[:, ~empty], 9.0 * ms[:, ~empty], rtol=1e-9, atol=1e-12 * variance.max() + 9 * rounding)
     shifted = band_levels(signals + 0.25, dx, kind=kind, periodic=True).mean_square
-    np.testing.assert_allclose(shifted[:, ~empty], ms[:, ~empty], rtol=1e-6, atol=1e-9 * variance.max() + 1e-30)
+    offset_rounding = 1e-24 * float(np.max((signals + 0.25) ** 2)) * n
+    np.testing.assert_allclose(shifted[:, ~empty], ms[:, ~empty], rtol=1e-6,
+                               atol=1e-9 * variance.max() + offset_rounding + rounding)
     broken = signals.copy()
     broken[0, n // 2] = np.nan
     with pytest.raises(ValueError):
@@ -462,6 +468,18 @@ def test_read_profile_refuses_garbage_with_a_value_error(tmp_path_factory, data,
         assert str(exc).strip()
     else:
         assert profile.heights.size >= 2 and np.all(np.diff(profile.positions) > 0)
+
+
+@pytest.mark.xfail(strict=True, raises=BaseException, reason=(
+    "bug J1 (found by the garbage property, thorough profile): read_profile on a CSV whose content is a lone "
+    "quote, or whose last line ends in an opening quote, lets polars' PanicException ('slice index starts at 1 "
+    "but ends at 0', polars 2.1 read_csv) out; it is a BaseException, so nothing downstream catches it"))
+@pytest.mark.parametrize("data", [b'"', b"0,1\n0.5,2\n1,\"", b'0,1\n"'])
+def test_j1_csv_ending_in_an_open_quote_raises_a_value_error(tmp_path, data):
+    path = tmp_path / "quote.csv"
+    path.write_bytes(data)
+    with pytest.raises(ValueError):
+        read_profile(path)
 
 
 @budget(40)
