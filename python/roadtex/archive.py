@@ -419,7 +419,8 @@ def _stage(stage: str, action: Callable[[], Any]) -> Any:
         return action()
     except (ArchiveWriteError, KeyboardInterrupt, MemoryError):
         raise
-    except Exception as exc:
+    except (Exception, pl.exceptions.PanicException) as exc:
+        # A panic inside a library (polars, the Rust core) on one bad run is that run's failure.
         raise _RunFailure(stage, exc) from exc
 
 

@@ -703,7 +703,10 @@ def _parse_table(data: bytes, separator: str, n_columns: int, name: str,
     try:
         frame = pl.read_csv(io.BytesIO(data), has_header=False, separator=separator, schema=schema,
                             null_values=["", "NA", "N/A", "null", "-"], comment_prefix=None, quote_char='"')
-    except Exception as exc:  # polars raises ComputeError/NoDataError with a long hint: keep the first line
+    except (Exception, pl.exceptions.PanicException) as exc:
+        # polars raises ComputeError/NoDataError with a long hint (keep its first line), and on some
+        # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
+        # BaseException, so it is named here to be reported as what it is, a bad file.
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ValueError(f"{name}: cannot read the numbers after line {first_line}: {message}") from None
     missing = np.column_stack([frame.get_column(c).is_null().to_numpy() for c in frame.columns]) \

@@ -194,11 +194,6 @@ def test_parquet_file_with_a_garbled_leading_magic_but_intact_data_is_read_right
     assert np.array_equal(back.heights, profile.heights) and np.array_equal(back.positions, profile.positions)
 
 
-@pytest.mark.xfail(strict=True, raises=pl.exceptions.PanicException, reason=(
-    "bug J1: a CSV file whose last line ends in an opening quote (a file cut inside a quoted field, e.g. "
-    "b'0,1\\n0.5,2\\n1,\"') makes polars 2.1 panic in read_csv (builder.rs: 'slice index starts at 1 but ends "
-    "at 0'); read_profile lets the pyo3 PanicException out, and as it is a BaseException, not an Exception, "
-    "roadtex.archive._stage does not catch it: the whole bulk job dies instead of recording the run"))
 def test_csv_cut_inside_a_quoted_field_is_recorded(tmp_path, archive):
     """A CSV run cut right after an opening quote, amid good runs: a read error, the rest goes on."""
     bad = tmp_path / "quoted.csv"
