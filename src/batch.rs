@@ -24,6 +24,16 @@ impl Segments<'_> {
     }
 }
 
+/// Names the problem an error came from.
+fn in_problem(error: ContactError, segment: usize, material: Material) -> ContactError {
+    match error {
+        ContactError::InvalidInput(message) => {
+            ContactError::InvalidInput(format!("segment {segment}, youngs_modulus {:e}: {message}", material.youngs_modulus))
+        }
+        other => other,
+    }
+}
+
 /// Solves every (segment, modulus) pair; results are ordered segment-major: index
 /// `segment * moduli.len() + modulus`. `threads = None` uses rayon's global pool.
 ///
@@ -67,7 +77,8 @@ pub fn solve_many(
                     let mut chain: Vec<ContactSolution> = Vec::with_capacity(materials.len());
                     for &material in &materials {
                         let previous = chain.last().filter(|c| c.converged).map(|c| c.pressure.as_slice());
-                        chain.push(solver.solve_from(workspace, segments.row(s), material, mean_pressure, previous)?);
+                        let solution = solver.solve_from(workspace, segments.row(s), material, mean_pressure, previous);
+                        chain.push(solution.map_err(|e| in_problem(e, s, material))?);
                     }
                     Ok(chain)
                 })
@@ -79,7 +90,7 @@ pub fn solve_many(
             // One workspace per rayon work item, reused across its jobs: results never depend on it.
             .map_init(Workspace::default, |workspace, job| {
                 let (s, m) = (job / materials.len(), job % materials.len());
-                solver.solve_in(workspace, segments.row(s), materials[m], mean_pressure)
+                solver.solve_in(workspace, segments.row(s), materials[m], mean_pressure).map_err(|e| in_problem(e, s, materials[m]))
             })
             .collect::<Result<Vec<_>>>()
     };

@@ -12,7 +12,7 @@ use crate::envelope::von_meier as von_meier_core;
 use crate::error::ContactError;
 use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
 use crate::reference::{FlatPunch, Westergaard};
-use crate::solver::{ContactSolution, ContactSolver, Material, Method, SolverOptions};
+use crate::solver::{ContactSolver, Material, Method, SolverOptions};
 use crate::synthetic::self_affine;
 
 fn to_py_err(err: ContactError) -> PyErr {
@@ -44,25 +44,6 @@ fn options(periodic: bool, kernel: &str, method: &str, tol: f64, max_iterations:
     Ok(options)
 }
 
-/// Refuses a solution that lost its numbers: NaN or inf, or a pressure that no longer carries the
-/// load. Only inputs of absurd magnitude (dx, P / E* or the height span beyond about 1e100 in SI
-/// units) get there, through under- or overflow in the core; on them the core can flag such a
-/// solution converged (fuzz finding F1, tests/fuzz_regressions.rs). Never a silent wrong answer.
-fn check_numbers(solution: &ContactSolution, heights: &[f64], dx: f64, strain: f64, mean_pressure: f64, which: &str) -> PyResult<()> {
-    let n = solution.pressure.len() as f64;
-    let balance = solution.pressure.iter().sum::<f64>() / (n * mean_pressure) - 1.0;
-    let finite = solution.pressure.iter().chain(&solution.envelope).all(|v| v.is_finite()) && solution.residual.is_finite();
-    if finite && balance.abs() <= 1e-9 {
-        return Ok(());
-    }
-    let (lo, hi) = heights.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &z| (lo.min(z), hi.max(z)));
-    Err(PyValueError::new_err(format!(
-        "{which}the solve lost double precision (NaN, or a pressure that does not carry the load): heights span {:e} m, \
-         dx {dx:e} m, mean_pressure / E* {strain:e}; these magnitudes are beyond what the solver handles: check the units (m, Pa)",
-        hi - lo
-    )))
-}
-
 type Solved<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, usize, f64, bool);
 
 /// One contact problem. Returns (pressure Pa, envelope m, iterations, residual, converged).
@@ -91,7 +72,6 @@ fn solve<'py>(
             ContactSolver::new(heights.len(), dx, options)?.solve(&heights, material, mean_pressure)
         })
         .map_err(to_py_err)?;
-    check_numbers(&solution, &heights, dx, mean_pressure / material.plane_strain_modulus(), mean_pressure, "")?;
     Ok((
         solution.pressure.into_pyarray(py),
         solution.envelope.into_pyarray(py),
@@ -139,12 +119,6 @@ fn solve_many<'py>(
             solve_many_core(Segments { heights: &heights, len }, dx, &moduli, poisson, mean_pressure, options, threads, warm_start)
         })
         .map_err(to_py_err)?;
-    for (k, s) in solutions.iter().enumerate() {
-        let (segment, modulus) = (k / m, k % m);
-        let strain = mean_pressure * (1.0 - poisson * poisson) / moduli[modulus];
-        let row = &heights[segment * len..(segment + 1) * len];
-        check_numbers(s, row, dx, strain, mean_pressure, &format!("segment {segment}, youngs_modulus {:e}: ", moduli[modulus]))?;
-    }
     let mut pressure = Vec::with_capacity(count * m * len);
     let mut envelope = Vec::with_capacity(count * m * len);
     let (mut iterations, mut residual, mut converged) = (Vec::new(), Vec::new(), Vec::new());

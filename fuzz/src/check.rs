@@ -49,24 +49,14 @@ pub fn solve(problem: &Problem) -> roadtex::Result<ContactSolution> {
 /// problem is in their reach. Such a problem is still solved and checked, but a broken promise on
 /// it is not reported (a panic still is). `tests/fuzz_regressions.rs` pins each of them.
 ///
-/// F1: beyond about 1e+-100 (SI) the CG path under- or overflows: the pressure comes back NaN (the
-/// residual skips NaN, f64::max) or all zero, flagged converged with residual 0.
-/// F2: on the same inputs the dense direct solve fails ("the trial contact set became empty").
-/// Every combination of heights span, dx, E and P within 1e+-40 solves correctly, so the reach
-/// is drawn at 1e+-60 for each magnitude the core forms.
-pub fn known_issue(problem: &Problem) -> Option<&'static str> {
-    let (lo, hi) = problem.heights.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &z| (lo.min(z), hi.max(z)));
-    let span = hi - lo;
-    let length = problem.dx * problem.heights.len() as f64;
-    let strain = problem.mean_pressure * (1.0 - problem.poisson * problem.poisson) / problem.youngs_modulus;
-    let outside = |v: f64| !(v.abs() >= KNOWN_RANGE.0 && v.abs() <= KNOWN_RANGE.1);
-    let extreme = (span != 0.0 && outside(span))
-        || [problem.dx, length, problem.youngs_modulus, problem.mean_pressure, strain, strain * length].into_iter().any(outside);
-    extreme.then_some("F1/F2: magnitudes beyond 1e+-60 (SI) under- or overflow in the core")
+/// None at present. F1 (beyond about 1e+-100 SI the CG path under- or overflowed and returned NaN
+/// or zero pressure flagged converged) and F2 (the direct solve failed on the same inputs) are
+/// fixed: the core refuses heights, dx, E and P beyond 1e+-40 and P / E*, P L / E* beyond 1e+-60
+/// (`solver::MAGNITUDE_LIMIT`), and checks every solution is finite and carries the load.
+pub fn known_issue(_problem: &Problem) -> Option<&'static str> {
+    None
 }
 
-/// The range of magnitudes (SI) inside which no known issue applies.
-pub const KNOWN_RANGE: (f64, f64) = (1e-60, 1e60);
 
 /// Solves and checks; `Err` describes a broken promise (the fuzz targets panic on it).
 pub fn solve_and_check(problem: &Problem) -> Result<Option<ContactSolution>, String> {

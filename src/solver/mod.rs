@@ -37,6 +37,7 @@ impl Material {
         if !(youngs_modulus.is_finite() && youngs_modulus > 0.0) {
             return invalid(format!("youngs_modulus must be a positive finite number of pascals, got {youngs_modulus}"));
         }
+        check_magnitude("youngs_modulus", youngs_modulus, "Pa")?;
         if !(poisson.is_finite() && poisson > -1.0 && poisson <= 0.5) {
             return invalid(format!("poisson must lie in (-1, 0.5], got {poisson}"));
         }
@@ -154,7 +155,47 @@ pub fn validate_problem(heights: &[f64], dx: f64, mean_pressure: f64) -> Result<
     if !(mean_pressure.is_finite() && mean_pressure > 0.0) {
         return invalid(format!("mean_pressure must be a positive finite number of pascals, got {mean_pressure}"));
     }
+    check_magnitude("dx", dx, "m")?;
+    check_magnitude("mean_pressure", mean_pressure, "Pa")?;
+    let largest = heights.iter().fold(0.0f64, |m, z| m.max(z.abs()));
+    if largest > MAGNITUDE_LIMIT {
+        return invalid(format!(
+            "heights reach {largest:e} m, beyond the {MAGNITUDE_LIMIT:e} the solver handles in double precision: check the units (m)"
+        ));
+    }
     Ok(())
+}
+
+/// Magnitudes (SI) within which every input combination is solved correctly in double precision
+/// (heights, dx, E and P each from 1e-40 to 1e40, tests/fuzz_regressions.rs). Beyond, sums of
+/// squares overflow or pressures underflow (fuzz findings F1, F2): such input is refused. Roads
+/// are some 30 orders of magnitude inside.
+pub const MAGNITUDE_LIMIT: f64 = 1e40;
+/// The same for the magnitudes the solver forms: P / E* and P L / E*.
+const DERIVED_LIMIT: f64 = 1e60;
+
+fn check_magnitude(name: &str, value: f64, unit: &str) -> Result<()> {
+    if !(1.0 / MAGNITUDE_LIMIT..=MAGNITUDE_LIMIT).contains(&value) {
+        return invalid(format!(
+            "{name} = {value:e} {unit} is outside the {:e} to {MAGNITUDE_LIMIT:e} {unit} the solver handles in double precision: check the units",
+            1.0 / MAGNITUDE_LIMIT
+        ));
+    }
+    Ok(())
+}
+
+/// A last guard: a solution must be finite and carry the load. Inside the accepted magnitudes this
+/// always holds; it is checked so that no rounding accident can ever come back flagged converged.
+fn check_solution(solution: &ContactSolution, mean_pressure: f64) -> Result<()> {
+    let n = solution.pressure.len() as f64;
+    let balance = solution.pressure.iter().sum::<f64>() / (n * mean_pressure) - 1.0;
+    let finite = solution.pressure.iter().chain(&solution.envelope).all(|v| v.is_finite()) && solution.residual.is_finite();
+    if finite && balance.abs() <= 1e-9 {
+        return Ok(());
+    }
+    invalid(format!(
+        "the solve lost double precision (NaN, or a pressure that does not carry the load: balance error {balance:e}); check the units (m, Pa)"
+    ))
 }
 
 /// The solver for one (N, dx, model): builds the kernel and FFT plans once, then solves any number
@@ -286,9 +327,15 @@ impl ContactSolver {
         let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let z: Vec<f64> = heights.iter().map(|&h| h - top).collect();
         let strain = mean_pressure / e_star;
-        if !strain.is_normal() {
+        // The solver's own scales, the strain and the displacement it makes over the sample, must
+        // stay well inside double precision too (fuzz findings F1, F2 lay beyond 1e+-100).
+        let displacement_scale = strain * self.dx * self.n as f64;
+        if !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&strain)
+            || !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&displacement_scale)
+        {
             return invalid(format!(
-                "mean_pressure / E* = {strain:e} under- or overflows double precision: check the units of mean_pressure and youngs_modulus (Pa)"
+                "mean_pressure / E* = {strain:e} (over the sample {displacement_scale:e} m) is beyond what double precision carries \
+                 through the solve: check the units of mean_pressure and youngs_modulus (Pa) and dx (m)"
             ));
         }
         let scale = height_scale(&z, strain, self.dx);
@@ -309,13 +356,15 @@ impl ContactSolver {
             // On contact the surface is the profile itself; the residual gap there is solver error.
             .map(|((&g, &h), &q)| if q > 0.0 { h } else { h + g.max(0.0) })
             .collect();
-        Ok(ContactSolution {
+        let solution = ContactSolution {
             pressure,
             envelope,
             iterations: outcome.iterations,
             residual: outcome.residual,
             converged: outcome.converged,
-        })
+        };
+        check_solution(&solution, mean_pressure)?;
+        Ok(solution)
     }
 }
 
