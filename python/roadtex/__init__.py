@@ -10,7 +10,8 @@ True
 """
 
 from roadtex._core import __version__
-from roadtex.contact import ContactBatch, ContactResult, ConvergenceError, contact, contact_many
+from roadtex.contact import (ContactBatch, ContactResult, ConvergenceError, ImplausibleTextureWarning, RoadtexWarning,
+                             contact, contact_many)
 from roadtex.envelopes import von_meier
 from roadtex.clapp import ClappResult, clapp
 from roadtex.spectra import (BandLevels, band_levels, band_regressions, band_table, level_differences, octave_levels,
@@ -19,7 +20,7 @@ from roadtex.calibration import CalibrationResult, calibrate_modulus
 from roadtex.archive import ProcessingOptions, build_manifest, process, read_manifest, read_profiles
 from roadtex.report import build_report
 
-__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "contact", "contact_many", "von_meier", "__version__",
+__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "ImplausibleTextureWarning", "RoadtexWarning", "contact", "contact_many", "von_meier", "__version__",
            "ClappResult", "clapp",
            "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
            "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
