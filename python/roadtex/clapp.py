@@ -11,7 +11,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex.contact import ContactMeasures, _as_float_array, _positive_int, _scalar
+from roadtex.contact import ContactMeasures, _as_float_array, _positive_int, _scalar, _whole_number
 
 
 @dataclass(frozen=True)
@@ -60,12 +60,6 @@ class ClappResult(ContactMeasures):
             "sub_profiles": self.sub_profiles,
             "sweeps": self.sweeps,
         }
-
-
-def _non_negative_int(value: object, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < 0:
-        raise ValueError(f"{name} must be a whole number >= 0, got {value!r}")
-    return int(value)
 
 
 def clapp(
@@ -133,6 +127,6 @@ def clapp(
     dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
                             _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
     sub = _positive_int(sub_profile, "sub_profile")
-    lap = _non_negative_int(overlap, "overlap")
+    lap = _whole_number(overlap, "overlap", 0)
     pressure, envelope, count, sweeps = _core.clapp(z, dx_f, e_f, nu_f, p_f, sub, lap, bool(wrap))
     return ClappResult(z, dx_f, pressure, envelope, e_f, nu_f, p_f, sub, lap, bool(wrap), count, sweeps)

@@ -198,10 +198,14 @@ def _scalar(value: object, name: str) -> float:
         raise ValueError(f"{name} must be a number, got {value!r}") from None
 
 
-def _positive_int(value: object, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < 1:
-        raise ValueError(f"{name} must be at least 1 (a whole number), got {value!r}")
+def _whole_number(value: object, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < minimum:
+        raise ValueError(f"{name} must be at least {minimum} (a whole number), got {value!r}")
     return int(value)
+
+
+def _positive_int(value: object, name: str) -> int:
+    return _whole_number(value, name, 1)
 
 
 def contact(

@@ -131,7 +131,7 @@ CASES = {
     "sub_profile 0": (dict(sub_profile=0), r"sub_profile must be at least 1"),
     "sub_profile 4": (dict(sub_profile=4, overlap=0), r"sub_profile must be at least 8"),
     "sub_profile float": (dict(sub_profile=512.5), r"sub_profile must be at least 1"),
-    "overlap negative": (dict(overlap=-1), r"overlap must be a whole number >= 0"),
+    "overlap negative": (dict(overlap=-1), r"overlap must be at least 0 \(a whole number\)"),
     "overlap too large": (dict(sub_profile=64, overlap=32), r"overlap must be less than half of sub_profile"),
 }
 
