@@ -69,7 +69,9 @@ MANIFEST_COLUMNS: dict[str, type[pl.DataType] | pl.DataType] = {
 }
 #: Metadata columns copied from the manifest into every segment row.
 METADATA_COLUMNS = ("site", "lane", "wheel_path", "date", "device", "direction", "pavement", "speed_kmh")
-#: Prefix of optional measured-noise columns (e.g. ``noise_1000`` for the 1 kHz CPX band, dB).
+#: Prefix of optional measured-noise columns: ``noise_<centre frequency in Hz>`` in dB, e.g.
+#: ``noise_1000`` for the 1 kHz CPX one-third-octave band. Checked and carried in the manifest for
+#: :func:`roadtex.calibrate_modulus` (join on ``run_id``); the bulk job does not use them.
 NOISE_PREFIX = "noise_"
 
 SEGMENT_SCHEMA: dict[str, pl.DataType] = {
@@ -105,6 +107,7 @@ BAND_SCHEMA: dict[str, pl.DataType] = {
 RUN_SCHEMA: dict[str, pl.DataType] = {
     "run_id": pl.String(),
     "path": pl.String(),
+    "format": pl.String(),               # as given in the manifest (null: guessed from the file)
     "points": pl.Int64(),                # after conditioning
     "length": pl.Float64(),              # m, after conditioning
     "dx": pl.Float64(),                  # m
@@ -115,7 +118,7 @@ RUN_SCHEMA: dict[str, pl.DataType] = {
 ERROR_SCHEMA: dict[str, pl.DataType] = {
     "run_id": pl.String(),
     "path": pl.String(),
-    "stage": pl.String(),                # read, condition, segment, solve, spectra
+    "stage": pl.String(),                # read, condition, mpd, segment, spectra, solve
     "error_type": pl.String(),
     "message": pl.String(),
 }
@@ -196,6 +199,15 @@ class ProcessingOptions:
             raise ValueError(f"dx must be positive (m) or None, got {self.dx!r}")
         if not (0 <= self.segment_overlap < self.segment_length):
             raise ValueError(f"segment_overlap must be in [0, segment_length), got {self.segment_overlap!r}")
+        if not (np.isfinite(self.poisson) and -1.0 < self.poisson <= 0.5):
+            raise ValueError(f"poisson must lie in (-1, 0.5], got {self.poisson!r}")
+        if isinstance(self.max_iterations, bool) or not isinstance(self.max_iterations, (int, np.integer)) \
+                or self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be a whole number >= 1, got {self.max_iterations!r}")
+        for name in ("spike_alpha", "mpd_spike_alpha", "speed_kmh"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be positive or None, got {value!r}")
         if self.band_kind not in ("third_octave", "octave"):
             raise ValueError(f"band_kind must be 'third_octave' or 'octave', got {self.band_kind!r}")
 
@@ -289,6 +301,10 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                & pl.col(name).cast(pl.Float64, strict=False).is_null())
             if bad.height:
                 raise ManifestError(f"manifest column {name!r} must be numeric; row value {bad[name][0]!r}")
+    if "speed_kmh" in table.columns:
+        speeds = table["speed_kmh"].cast(pl.Float64, strict=False).drop_nulls()
+        if speeds.len() and not (speeds > 0).all():
+            raise ManifestError(f"manifest column 'speed_kmh' must be positive (km/h); found {speeds.filter(speeds <= 0)[0]!r}")
     table = table.with_columns(casts)
     if table["path"].null_count():
         raise ManifestError("manifest column 'path' has empty entries")
@@ -366,25 +382,35 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
         seed: seed of the first run; run i uses seed + i.
 
     Returns:
-        The manifest's path. An archive already there with the same runs is kept as it is.
+        The manifest's path. An archive already written there with the same arguments is kept as
+        it is (so a re-run finds its inputs unchanged); with other arguments it is rewritten.
     """
+    from roadtex import __version__
     from roadtex.pavements import synthetic_pavement
     from roadtex.profile import write_profile
 
     root = Path(folder)
     root.mkdir(parents=True, exist_ok=True)
     suffix = {"parquet": ".parquet", "csv": ".csv", "npy": ".npy"}[file_format]
+    recipe = {"kinds": list(kinds), "run_length": run_length, "dx": dx, "seed": seed, "format": file_format,
+              "roadtex": __version__}
+    stamp = root / "archive.json"
+    try:
+        same = json.loads(stamp.read_text()) == recipe
+    except (OSError, ValueError):
+        same = False
     rows = []
     for i in range(runs_per_kind * len(kinds)):
         kind = kinds[i % len(kinds)]
         run_id = f"{kind}_{i // len(kinds) + 1:03d}"
         path = root / f"{run_id}{suffix}"
-        if not path.exists():
+        if not (same and path.exists()):
             write_profile(synthetic_pavement(kind, run_length, dx, seed=seed + i), path)
         rows.append({"path": path.name, "run_id": run_id, "site": f"synthetic-{run_id}", "pavement": kind,
                      "device": "roadtex synthetic pavement generator", "speed_kmh": speed_kmh})
     manifest = root / "manifest.csv"
     pl.DataFrame(rows).write_csv(manifest)
+    stamp.write_text(json.dumps(recipe))
     return manifest
 
 
@@ -428,21 +454,19 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     """Reads, conditions, segments, solves and analyses one run; returns its tables (nothing written).
 
     Raises:
-        _RunFailure: with the stage that failed (read, condition, segment, solve, spectra).
+        _RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
+            too short for one 100 mm MPD baseline or one segment fails as a whole.
     """
     from roadtex.contact import contact_many
     from roadtex.mpd import mpd as mean_profile_depth
     from roadtex.profile import read_profile
-    from roadtex.spectra import band_levels, time_frequency
+    from roadtex.spectra import REFERENCE_PRESSURE, band_levels, time_frequency
 
     raw = _stage("read", lambda: read_profile(run["path"], format=run.get("format")))
     conditioned = _stage("condition", lambda: raw.conditioned(dx=options.dx, spike_alpha=options.spike_alpha))
     depth = _stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
     segments = _stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
-    if n_segments == 0:
-        raise _RunFailure("segment", ValueError(
-            f"run is {conditioned.length:.4g} m long, shorter than one segment of {options.segment_length:g} m"))
     moduli = np.asarray(options.youngs_moduli)
     n_moduli = moduli.size
     dx = segments.dx
@@ -467,8 +491,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             f"segment length ({segments.length:.3g} m); use longer segments"))
     bands = texture.bands.filter(pl.col("reported"))
     band_count = bands.height
-    frequency = (time_frequency(bands["centre_wavelength"].to_numpy(), speed) if speed is not None
-                 else np.full(band_count, np.nan))
+    frequency = (_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
+                 if speed is not None else np.full(band_count, np.nan))
 
     for first in range(0, n_segments, _CHUNK_SEGMENTS):
         chunk = slice(first, min(first + _CHUNK_SEGMENTS, n_segments))
@@ -482,7 +506,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         pressures = batch.pressure.reshape(count * n_moduli, n_points)
         enveloped = _stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True))
         pressure = _stage("spectra", lambda: band_levels(
-            pressures, dx, kind=options.band_kind, periodic=True, reference=_reference_pressure()))
+            pressures, dx, kind=options.band_kind, periodic=True, reference=REFERENCE_PRESSURE))
         if options.keep_profiles:
             profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
             profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)
@@ -532,7 +556,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA),
         "bands": pl.concat(band_frames).with_columns(pl.col("frequency").fill_nan(None)),
         "run": pl.DataFrame({
-            "run_id": [run["run_id"]], "path": [run["path"]], "points": [conditioned.heights.size],
+            "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
+            "points": [conditioned.heights.size],
             "length": [conditioned.length], "dx": [dx], "segments": [n_segments], "mpd": [depth.mpd],
             "dropout_fraction": [raw.dropout_fraction],
         }, schema=RUN_SCHEMA),
@@ -540,12 +565,6 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     if options.keep_profiles:
         tables["profiles"] = _stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
     return tables
-
-
-def _reference_pressure() -> float:
-    from roadtex.spectra import REFERENCE_PRESSURE
-
-    return REFERENCE_PRESSURE
 
 
 def _segment_mpd(baselines: pl.DataFrame, starts: np.ndarray, length: float, dx: float) -> np.ndarray:
@@ -725,7 +744,7 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     return ProcessSummary(
         out_dir=out, runs=len(runs), processed=counts["ok"], failed=counts["error"],
         skipped=sum(1 for s in statuses.values() if s["skipped"]),
-        kilometres=sum(float(s.get("kilometres", 0.0)) for s in statuses.values()),
+        kilometres=sum(float(s.get("kilometres", 0.0)) for s in statuses.values() if not s["skipped"]),
         seconds=time.perf_counter() - started, tables=tables)
 
 

@@ -64,7 +64,7 @@ def process_command(args: argparse.Namespace) -> int:
         options = ProcessingOptions(
             youngs_moduli=tuple(e * 1e6 for e in args.moduli), mean_pressure=args.pressure * 1e6,
             poisson=args.poisson, segment_length=args.segment_length, segment_overlap=args.overlap,
-            dx=None if args.dx is None else args.dx, spike_alpha=args.spike_alpha,
+            dx=args.dx, spike_alpha=args.spike_alpha,
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
             band_kind=args.bands, speed_kmh=args.speed, keep_profiles=args.keep_profiles)
         summary = process(args.manifest, args.out, options, engine=args.engine, scheduler=args.scheduler,

@@ -35,8 +35,8 @@ FIGURES: dict[str, str] = {
     "fig_4_1_envelopes": "Figure 4.1: enveloped profiles of each pavement at several rubber moduli E (INRETS periodic model).",
     "fig_4_2_pressures": "Figure 4.2: contact pressure distributions of the profiles of figure 4.1.",
     "fig_4_3_valley_penetration": "Figure 4.3: depth of penetration into each valley, below the line joining its two asperities, von Meier (d* = 0.054 1/mm) against INRETS at several E; negative where the rubber stays above that line.",
-    "fig_4_4_texture_spectra": "Figure 4.4: one-third-octave texture spectra of enveloped profiles (top) and their difference from the original profile (bottom).",
-    "fig_4_5_pressure_spectra": "Figure 4.5: one-third-octave spectra of the contact pressure.",
+    "fig_4_4_texture_spectra": "Figure 4.4: texture spectra (band levels) of enveloped profiles (top) and their difference from the original profile (bottom).",
+    "fig_4_5_pressure_spectra": "Figure 4.5: band spectra of the contact pressure.",
     "fig_4_6_pressure_vs_texture": "Figure 4.6: pressure level against enveloped texture level per octave band, one regression line per E.",
     "fig_speed_vs_error": "Solver speed against error (from the benchmark data).",
 }
@@ -131,22 +131,24 @@ class _Example:
 
 def _examples(results: _Results, max_groups: int = 4) -> list[_Example]:
     """The middle segment of the first run of each pavement type (or run), re-read and re-solved."""
+    from roadtex.archive import ProcessingOptions
     from roadtex.contact import contact_many
     from roadtex.profile import read_profile
 
-    options = results.options
+    options = ProcessingOptions(**results.options)
     column = results.group_column()
     runs = results.segments.select("run_id", column).unique(maintain_order=True)
     chosen = runs.group_by(column, maintain_order=True).first().head(max_groups)
-    paths = dict(results.runs.select("run_id", "path").iter_rows())
+    files = {run_id: (path, file_format) for run_id, path, file_format
+             in results.runs.select("run_id", "path", "format").iter_rows()}
     examples = []
     for run_id, group in chosen.select("run_id", column).iter_rows():
-        profile = read_profile(paths[run_id]).conditioned(dx=options.get("dx"), spike_alpha=options.get("spike_alpha"))
-        segments = profile.segments(options.get("segment_length", 0.5), options.get("segment_overlap", 0.0))
+        path, file_format = files[run_id]
+        profile = read_profile(path, format=file_format).conditioned(dx=options.dx, spike_alpha=options.spike_alpha)
+        segments = profile.segments(options.segment_length, options.segment_overlap)
         heights = segments.heights[len(segments) // 2]
-        batch = contact_many(heights[None, :], segments.dx, results.moduli, options.get("mean_pressure", 2e5),
-                             poisson=options.get("poisson", 0.5), tol=options.get("tol", 1e-6),
-                             raise_on_nonconvergence=False)
+        batch = contact_many(heights[None, :], segments.dx, results.moduli, options.mean_pressure,
+                             poisson=options.poisson, tol=options.tol, raise_on_nonconvergence=False)
         examples.append(_Example(str(group), run_id, segments.dx, heights,
                                  {e: batch.envelope[0, k] for k, e in enumerate(results.moduli)},
                                  {e: batch.pressure[0, k] for k, e in enumerate(results.moduli)}))
@@ -255,10 +257,10 @@ def fig_valley_penetration(plt, examples: list[_Example], moduli: list[float], m
     return fig
 
 
-def _band_axis(ax, labels: list[str]) -> None:
+def _band_axis(ax, labels: list[str], kind: str) -> None:
     ax.set_xticks(range(len(labels)))
     ax.set_xticklabels(labels, rotation=90)
-    ax.set_xlabel("one-third-octave band, centre wavelength (mm)")
+    ax.set_xlabel(f"{'octave' if kind == 'octave' else 'one-third-octave'} band, centre wavelength (mm)")
 
 
 def _mean_spectra(results: _Results, level: str) -> pl.DataFrame:
@@ -292,7 +294,7 @@ def fig_texture_spectra(plt, results: _Results):
         top.set(title=str(name), ylabel="texture level L_tx (dB re 1 µm)")
         bottom.set(ylabel="enveloped − original (dB)")
         bottom.axhline(0, color="0.5", lw=0.7)
-        _band_axis(bottom, labels["label"].to_list())
+        _band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     return fig
@@ -313,7 +315,7 @@ def fig_pressure_spectra(plt, results: _Results):
             ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
                     marker=".", label=_modulus_label(e))
         ax.set_title(str(name))
-        _band_axis(ax, labels["label"].to_list())
+        _band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
     axes[0, 0].set_ylabel(f"pressure level L_p (dB re {REFERENCE_PRESSURE:g} Pa)")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
@@ -493,7 +495,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
         f"<p>{results.runs.height} runs, {results.runs['length'].sum() / 1e3:.3f} km of profile, "
-        f"{results.segments['segment'].n_unique() and results.segments.height} segment solutions; "
+        f"{results.segments.height} segment solutions; "
         f"E = {', '.join(f'{e / 1e6:g}' for e in results.moduli)} MPa, P = {pressure / 1e6:g} MPa, "
         f"segments of {options.get('segment_length', 0.5):g} m. "
         f"{n_errors} run(s) failed{' (see errors.parquet)' if n_errors else ''}. "

@@ -86,6 +86,7 @@ def test_manifest_paths_resolve_relative_to_manifest(archive: Path) -> None:
     ({"path": ["a.csv", "a.csv"]}, "appears twice"),
     ({"path": ["missing.csv"]}, "do not exist"),
     ({"path": ["a.csv"], "speed_kmh": ["fast"]}, "must be numeric"),
+    ({"path": ["a.csv"], "speed_kmh": [0.0]}, "must be positive"),
 ])
 def test_bad_manifest_is_refused_before_any_work(tmp_path: Path, columns: dict, message: str) -> None:
     (tmp_path / "a.csv").write_text("x")
@@ -95,6 +96,16 @@ def test_bad_manifest_is_refused_before_any_work(tmp_path: Path, columns: dict, 
     with pytest.raises(ManifestError, match=message):
         process(manifest, out, OPTIONS, quiet=True)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("options, message", [
+    (dict(poisson=0.7), "poisson"), (dict(max_iterations=0), "max_iterations"),
+    (dict(mpd_spike_alpha=0.0), "mpd_spike_alpha"), (dict(speed_kmh=-80.0), "speed_kmh"),
+    (dict(youngs_moduli=(2e6, -1.0)), "youngs_moduli"), (dict(segment_overlap=0.6), "segment_overlap"),
+])
+def test_bad_options_are_refused_before_any_work(options: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        ProcessingOptions(**options)
 
 
 def test_empty_manifest_is_refused(tmp_path: Path) -> None:
@@ -115,7 +126,7 @@ def test_build_manifest_lists_profile_files_with_their_metadata(tmp_path: Path) 
 def test_build_manifest_reads_captif_metadata(captif_dir: Path) -> None:
     table = build_manifest(captif_dir)
     assert table.height == 3
-    assert table["wheel_path"].null_count() == 0 or table["date"].null_count() == 0
+    assert table["wheel_path"].null_count() == 0 and table["date"].null_count() == 0
 
 
 # ---------------------------------------------------------------- tables
