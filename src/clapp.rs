@@ -52,7 +52,7 @@ use std::ops::Range;
 
 use crate::error::{invalid, ContactError, Result};
 use crate::kernel::finite_coefficients;
-use crate::solver::{validate_problem, Material};
+use crate::solver::{check_strain, validate_problem, Material};
 
 /// Sweeps with bulk changes of the trial set before the loop changes one point per sweep.
 pub const BULK_SWEEPS: usize = 50;
@@ -140,11 +140,7 @@ pub fn clapp(heights: &[f64], dx: f64, material: Material, mean_pressure: f64, o
     let n = heights.len();
     let e_star = material.plane_strain_modulus();
     let strain = mean_pressure / e_star;
-    if !strain.is_normal() {
-        return invalid(format!(
-            "mean_pressure / E* = {strain:e} under- or overflows double precision: check the units of mean_pressure and youngs_modulus (Pa)"
-        ));
-    }
+    check_strain(strain, dx * n as f64)?;
     let cut = windows(n, &options);
     let len = cut[0].len;
     // One set of coefficients serves every window (all have the same length), for unit E*.

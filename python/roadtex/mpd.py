@@ -110,7 +110,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     """
     spacing = _positive(sample_spacing, "sample_spacing")
     seg_length = _positive(segment_length, "segment_length")
-    alpha = None if spike_alpha is None else _positive(spike_alpha, "spike_alpha")
+    alpha = None if spike_alpha is None else _positive(spike_alpha, "spike_alpha", "a slope, no unit")
     max_dropout = _fraction(max_dropout_fraction, "max_dropout_fraction")
     max_spike = _fraction(max_spike_fraction, "max_spike_fraction")
     min_valid = _fraction(min_valid_fraction, "min_valid_fraction")

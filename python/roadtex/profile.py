@@ -57,10 +57,10 @@ def _scalar(value: object, name: str) -> float:
     return number
 
 
-def _positive(value: object, name: str) -> float:
+def _positive(value: object, name: str, unit: str = "m") -> float:
     number = _scalar(value, name)
     if number <= 0.0:
-        raise ValueError(f"{name} must be positive (m), got {value!r}")
+        raise ValueError(f"{name} must be positive ({unit}), got {value!r}")
     return number
 
 
@@ -301,7 +301,7 @@ class Profile:
         sampling it also flags steep but real stone edges. Alpha = 6 suits coarse chip seals
         measured by the CAPTIF laser (its authors' setting).
         """
-        alpha_f = _positive(alpha, "alpha")
+        alpha_f = _positive(alpha, "alpha", "a slope, no unit")
         z = self.heights.copy()
         valid_index = np.flatnonzero(~np.isnan(z))
         jump = np.abs(np.diff(z[valid_index])) >= alpha_f * np.diff(self.positions[valid_index])

@@ -174,6 +174,21 @@ pub const MAGNITUDE_LIMIT: f64 = 1e40;
 /// The same for the magnitudes the solver forms: P / E* and P L / E*.
 const DERIVED_LIMIT: f64 = 1e60;
 
+/// The solver's own scales, the strain P / E* and the displacement it makes over the sample
+/// length (m), must stay well inside double precision too (fuzz findings F1, F2 lay beyond 1e+-100).
+pub(crate) fn check_strain(strain: f64, sample_length: f64) -> Result<()> {
+    let displacement_scale = strain * sample_length;
+    if !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&strain)
+        || !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&displacement_scale)
+    {
+        return invalid(format!(
+            "mean_pressure / E* = {strain:e} (over the sample {displacement_scale:e} m) is beyond what double precision carries \
+             through the solve: check the units of mean_pressure and youngs_modulus (Pa) and dx (m)"
+        ));
+    }
+    Ok(())
+}
+
 fn check_magnitude(name: &str, value: f64, unit: &str) -> Result<()> {
     if !(1.0 / MAGNITUDE_LIMIT..=MAGNITUDE_LIMIT).contains(&value) {
         return invalid(format!(
@@ -327,17 +342,7 @@ impl ContactSolver {
         let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let z: Vec<f64> = heights.iter().map(|&h| h - top).collect();
         let strain = mean_pressure / e_star;
-        // The solver's own scales, the strain and the displacement it makes over the sample, must
-        // stay well inside double precision too (fuzz findings F1, F2 lay beyond 1e+-100).
-        let displacement_scale = strain * self.dx * self.n as f64;
-        if !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&strain)
-            || !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&displacement_scale)
-        {
-            return invalid(format!(
-                "mean_pressure / E* = {strain:e} (over the sample {displacement_scale:e} m) is beyond what double precision carries \
-                 through the solve: check the units of mean_pressure and youngs_modulus (Pa) and dx (m)"
-            ));
-        }
+        check_strain(strain, self.dx * self.n as f64)?;
         let scale = height_scale(&z, strain, self.dx);
         let outcome = match self.options.method {
             Method::ConjugateGradient => {
