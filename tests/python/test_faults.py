@@ -306,10 +306,12 @@ def test_full_disk_while_writing_a_run_status_loses_nothing(tmp_path, archive, m
     with pytest.raises(ArchiveWriteError, match="No space left"):
         process(manifest(rows), out, OPTIONS, quiet=True)
     monkeypatch.setattr(Path, "write_text", original)
-    assert sorted(p.parent.name for p in (out / "runs").glob("*/status.json")) == ["run00"]
+    done = sorted(p.parent.name for p in (out / "runs").glob("*/status.json"))
+    # Two runs are in flight: run02 may have finished beside run01 before the job stopped.
+    assert done in (["run00"], ["run00", "run02"])
     assert not list(out.rglob("*.tmp"))
     summary = process(manifest(rows), out, OPTIONS, quiet=True)
-    assert (summary.processed, summary.skipped) == (2, 1)
+    assert (summary.processed, summary.skipped) == (3 - len(done), len(done))
     for name in TABLES:
         assert_frame_equal(table(out, name), table(reference, name), check_exact=True)
 
