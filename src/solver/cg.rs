@@ -31,13 +31,25 @@ const MAX_SWEEPS: usize = 40;
 /// Inner solves of early sweeps, while the set is still changing, stop after reducing the
 /// residual by this factor: measured best among 0.3, 0.1, 0.02 and 0.005 for time to solution.
 const ROUGH_REDUCTION: f64 = 0.1;
-/// Coarse-space dimensions (islands, grouped beyond this) for rough and for precise sweeps: E is
-/// refactored every sweep, so rough sweeps use a smaller one.
-const ROUGH_COARSE_DIM: usize = 256;
-const PRECISE_COARSE_DIM: usize = 1024;
-/// Most pairs of contact runs summed to assemble E (O(runs^2)); beyond this only the largest
-/// islands are deflated.
-const MAX_RUN_PAIRS: usize = 16_000_000;
+/// Most pairs of contact runs summed to assemble E (O(runs^2), about 4 ns a pair); beyond this
+/// only the largest islands are deflated, and the sweeps then need many more iterations (on a
+/// self-affine profile at N = 2^20, some 30,000 runs: 183 iterations in 63 s within this budget,
+/// 3,072 iterations in 279 s with a budget of 6.4e7).
+const MAX_RUN_PAIRS: usize = 1_000_000_000;
+
+/// Coarse-space dimension (runs of contact, grouped beyond it) for a set of `runs` runs at size N.
+///
+/// Rough sweeps refactor E every sweep, so they use a smaller space: 256 vectors up to N = 2^16,
+/// N / 256 beyond, and never fewer than one per three runs (with fewer, iterations grow faster
+/// with N: on self-affine profiles 65-75 iterations at 2^16 and 160-190 at 2^18, against 56-61
+/// and 83-84 with one per three runs). Precise sweeps use 1,024 to 2,048. Both stay at or below
+/// N / 16, where the coarse work would outweigh the FFTs, and at or below 2,048 (factoring E
+/// costs dim^3 / 3).
+fn coarse_dim(n: usize, runs: usize, rough: bool) -> usize {
+    const MAX_DIM: usize = 2048;
+    let wanted = if rough { (n / 256).clamp(256, MAX_DIM).max(runs / 3) } else { (n / 64).clamp(1024, MAX_DIM) };
+    wanted.min((n / 16).max(32)).min(MAX_DIM)
+}
 
 /// Most points whose pressure is dropped from the set between sweeps for which C p is updated
 /// column by column (O(N) each) instead of by a fresh FFT product.
@@ -56,6 +68,10 @@ pub(crate) struct Work<S> {
     scratch: S,
     mask: Vec<bool>,
     coarse_rhs: Vec<f64>,
+    /// The last solve's coarse space and the [`PairSums::id`] it was built from: a warm start
+    /// begins on the previous solution's contact set, whose coarse space is then the same (E*
+    /// is scaled out), bitwise, so reusing it changes no result.
+    coarse: Option<(u64, CoarseSpace)>,
     displacement: Vec<f64>,
     residual: Vec<f64>,
     preconditioned: Vec<f64>,
@@ -72,6 +88,7 @@ impl<S> Work<S> {
             scratch: op.scratch(),
             mask: vec![true; n],
             coarse_rhs: Vec::new(),
+            coarse: None,
             displacement: vec![0.0; n],
             residual: vec![0.0; n],
             preconditioned: vec![0.0; n],
@@ -105,7 +122,7 @@ pub(crate) fn solve<Op: Compliance>(
     let target_sum = mean_strain * n as f64;
     let mut mask = std::mem::take(&mut work.mask);
     let mut gap = vec![0.0; n];
-    let mut coarse: Option<CoarseSpace> = None;
+    let mut coarse: Option<CoarseSpace> = work.coarse.take().filter(|(id, _)| *id == pair_sums.id()).map(|(_, c)| c);
     let (mut p, warm) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
         // A neighbouring solution (the same profile under another modulus): its contact set is
         // close to this one, so the sweeps start from it with its pressure scaled to this load.
@@ -135,6 +152,7 @@ pub(crate) fn solve<Op: Compliance>(
     let max_iterations = max_iterations - warm;
     let outcome = sweeps(op, pair_sums, z, &mut p, &mut mask, &mut gap, &mut coarse, target_sum, scale, tol, max_iterations, work);
     work.mask = mask;
+    work.coarse = coarse.map(|c| (pair_sums.id(), c));
     match outcome {
         Ok((iterations, res)) => Outcome { pressure: p, gap, iterations: iterations + warm, residual: res, converged: true },
         Err(iterations) => {
@@ -286,11 +304,7 @@ fn solve_on_set<Op: Compliance>(
     let islands = if deflate { runs(mask) } else { Vec::new() };
     if islands.len() >= 2 {
         let n = mask.len();
-        let dim = if rough {
-            (n / 256).clamp(ROUGH_COARSE_DIM, 4 * ROUGH_COARSE_DIM).min((n / 16).max(32))
-        } else {
-            (n / 64).clamp(PRECISE_COARSE_DIM, 2 * PRECISE_COARSE_DIM).min((n / 8).max(64))
-        };
+        let dim = coarse_dim(n, islands.len(), rough);
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one): the same coarse space.
         if !cache.as_ref().is_some_and(|c| c.is_same(&islands, dim)) {

@@ -15,6 +15,9 @@ use faer::{MatRef, Side};
 
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
+    /// Unique per instance: a coarse space kept in a workspace is reused only with the sums it
+    /// was built from.
+    id: u64,
     n: usize,
     /// H(k) for k in [1 - N, N + 1], stored at k + N - 1.
     second: Vec<f64>,
@@ -39,14 +42,64 @@ impl PairSums {
         for k in (1 - ni..0).rev() {
             second[f_at(k)] = second[f_at(k + 1)] - first[f_at(k)];
         }
-        Self { n, second }
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Self { id, n, second }
     }
 
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+
+    #[cfg(test)]
     fn h(&self, k: isize) -> f64 {
         self.second[(k + self.n as isize - 1) as usize]
     }
 
+    /// G = Z^T C Z for the indicators Z of groups of consecutive runs (group g holds
+    /// runs[bounds[g]..bounds[g + 1]]), row-major groups x groups.
+    ///
+    /// O(runs^2) block sums, the hot loop of the coarse space: for each run, one contiguous pass
+    /// over each later group's runs, one write per (run, group).
+    pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize]) -> Vec<f64> {
+        let groups = bounds.len() - 1;
+        // block((a, b), (c, d)) = H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), and
+        // H(k) sits at k + N - 1: with the run ends shifted by N, every index is a plain sum.
+        let h = &self.second[..];
+        assert!(runs.iter().all(|&(a, b)| a <= b && b <= self.n), "runs must lie in [0, N]");
+        let sum_over = |(a, b): (usize, usize), others: &[(usize, usize)]| -> f64 {
+            let (hi, lo) = (b + self.n, a + self.n);
+            others
+                .iter()
+                .map(|&(c, d)| {
+                    // SAFETY: 0 <= a <= b <= N and 0 <= c <= d <= N (asserted above), so every
+                    // index lies in [0, 2N] and `second` has 2N + 1 entries. Unchecked because
+                    // this loop dominates the coarse-space cost and its bounds checks do not vectorise.
+                    unsafe {
+                        (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d))
+                    }
+                })
+                .sum()
+        };
+        let mut g = vec![0.0; groups * groups];
+        for ga in 0..groups {
+            for j in bounds[ga]..bounds[ga + 1] {
+                let rj = runs[j];
+                // Within the group: the pair (j, j) once, pairs (j, k > j) twice.
+                g[ga * groups + ga] += sum_over(rj, &runs[j..j + 1]) + 2.0 * sum_over(rj, &runs[j + 1..bounds[ga + 1]]);
+                for gb in ga + 1..groups {
+                    g[ga * groups + gb] += sum_over(rj, &runs[bounds[gb]..bounds[gb + 1]]);
+                }
+            }
+            for gb in ga + 1..groups {
+                g[gb * groups + ga] = g[ga * groups + gb];
+            }
+        }
+        g
+    }
+
     /// sum over i in [a, b), l in [c, d) of c(i - l); all bounds in [0, N].
+    #[cfg(test)]
     pub fn block(&self, (a, b): (usize, usize), (c, d): (usize, usize)) -> f64 {
         let (a, b, c, d) = (a as isize, b as isize, c as isize, d as isize);
         self.h(b - c + 1) - self.h(a - c + 1) - self.h(b - d + 1) + self.h(a - d + 1)
@@ -115,40 +168,13 @@ impl CoarseSpace {
         }
         let complete = runs.len() == all_runs;
         let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
-        let group_of: Vec<usize> = (0..groups).flat_map(|g| std::iter::repeat(g).take(bounds[g + 1] - bounds[g])).collect();
         let m = mask.iter().filter(|&&m| m).count() as f64;
         let group_len = |g: usize| runs[bounds[g]..bounds[g + 1]].iter().map(|(s, e)| e - s).sum::<usize>();
         let weights: Vec<f64> = (0..groups).map(|g| group_len(g) as f64 / m).collect();
         // When every run is covered the group indicators sum to 1_A: one zero-sum vector is redundant.
         let columns = if complete { groups - 1 } else { groups };
         // E = G - row w^T - w row^T + total w w^T, G = Z^T C Z, row = Z^T C 1_A, total = 1_A^T C 1_A.
-        let mut g_matrix = vec![0.0; groups * groups];
-        if groups == runs.len() {
-            // One run per group: the upper triangle, then its mirror.
-            for (j, &rj) in runs.iter().enumerate() {
-                let row = &mut g_matrix[j * groups..(j + 1) * groups];
-                for (k, &rk) in runs.iter().enumerate().skip(j) {
-                    row[k] = pair_sums.block(rj, rk);
-                }
-            }
-            for a in 0..groups {
-                for b in 0..a {
-                    g_matrix[a * groups + b] = g_matrix[b * groups + a];
-                }
-            }
-        } else {
-            for (j, &rj) in runs.iter().enumerate() {
-                let a = group_of[j];
-                for (k, &rk) in runs.iter().enumerate().skip(j) {
-                    let value = pair_sums.block(rj, rk);
-                    let b = group_of[k];
-                    g_matrix[a * groups + b] += value;
-                    if j != k {
-                        g_matrix[b * groups + a] += value;
-                    }
-                }
-            }
-        }
+        let g_matrix = pair_sums.group_matrix(&runs, &bounds);
         let (row, total): (Vec<f64>, f64) = if complete {
             // 1_A is the sum of the group indicators, so Z^T C 1_A are the row sums of G.
             let row: Vec<f64> = (0..groups).map(|a| g_matrix[a * groups..(a + 1) * groups].iter().sum()).collect();
@@ -283,6 +309,26 @@ mod tests {
             for &(c, d) in &[(0usize, 1usize), (2, 9), (30, 37), (0, 37)] {
                 let direct: f64 = (a..b).flat_map(|i| (c..d).map(move |l| (i, l))).map(|(i, l)| kernel(i as isize - l as isize)).sum();
                 assert!((sums.block((a, b), (c, d)) - direct).abs() < 1e-10, "{a} {b} {c} {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn group_matrix_matches_direct_double_sums() {
+        let n = 41;
+        // Symmetric, as every compliance kernel is (the matrix is assembled as symmetric).
+        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()) - 0.01 * (d * d) as f64;
+        let sums = PairSums::new(n, kernel);
+        let runs = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41)];
+        for bounds in [vec![0usize, 1, 2, 3, 4, 5, 6], vec![0, 2, 3, 6], vec![0, 6]] {
+            let groups = bounds.len() - 1;
+            let g = sums.group_matrix(&runs, &bounds);
+            let members = |grp: usize| -> Vec<usize> { runs[bounds[grp]..bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
+            for a in 0..groups {
+                for b in 0..groups {
+                    let direct: f64 = members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
+                    assert!((g[a * groups + b] - direct).abs() < 1e-9 * direct.abs().max(1.0), "{bounds:?} {a} {b}");
+                }
             }
         }
     }
