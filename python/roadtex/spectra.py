@@ -332,9 +332,13 @@ def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, ki
         taper = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(n_points) / n_points)  # periodic Hann
         line_weight /= np.mean(taper**2)  # energy correction: band powers keep the variance
     line_weight /= float(n_points) ** 2
-    # Weighted line-to-band matrix: a plain sum per band, no cumulative sums (no cancellation for
-    # bands far below the total power).
-    assignment = (_line_bands(n_points, dx, kind)[:, None] == bands[None, :]) * line_weight[:, None]
+    # Lines are in frequency order, so each band holds one contiguous slice of them: a plain sum
+    # per slice (no cumulative sums, which would cancel for bands far below the total power, and
+    # no matrix product, whose BLAS threads would compete with the contact solver's).
+    line_band = _line_bands(n_points, dx, kind)
+    first_line = np.searchsorted(line_band, bands, side="left")
+    end_line = np.searchsorted(line_band, bands, side="right")
+    filled = end_line > first_line
 
     mean_square = np.empty((n_signals, bands.size))
     rows_per_block = max(1, _BLOCK_VALUES // n_points)
@@ -345,8 +349,14 @@ def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, ki
         if window == "hann":
             block = block * taper
         spectrum = np.fft.rfft(block, axis=1)[:, 1:n_points // 2 + 1]
-        power = spectrum.real**2 + spectrum.imag**2
-        mean_square[start:start + rows_per_block] = power @ assignment
+        power = (spectrum.real**2 + spectrum.imag**2) * line_weight
+        sums = np.zeros((power.shape[0], bands.size))
+        if filled.any():
+            sums[:, filled] = np.add.reduceat(power, first_line[filled], axis=1)
+            # reduceat runs each slice to the next start: trim the last filled band to its own end.
+            last = np.flatnonzero(filled)[-1]
+            sums[:, last] = power[:, first_line[last]:end_line[last]].sum(axis=1)
+        mean_square[start:start + rows_per_block] = sums
 
     mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
