@@ -4,7 +4,7 @@ Run from the project root:
 
     .venv/bin/python benches/speed_vs_error.py            # default, a few minutes on 2 cores
     .venv/bin/python benches/speed_vs_error.py --quick    # small N only: a smoke run
-    .venv/bin/python benches/speed_vs_error.py --large    # adds the self-affine N = 2^18 (long)
+    .venv/bin/python benches/speed_vs_error.py --large    # adds the self-affine N = 2^18 and 2^20 (long)
     .venv/bin/python benches/speed_vs_error.py --json rows.json
 
 tamaas is optional (``.venv/bin/python -m pip install -r scripts/requirements-bench.txt``); without
@@ -21,7 +21,11 @@ Cases
      method="direct" (dense active-set solve, same kernel) for N <= 4096, and, for every N, roadtex
      kernel="spectral" against tamaas, which solves the same discrete problem (the kernel
      2 / (E* |k|) on collocation points).
-  3. tamaas 2.9.0 on the same problems: Model(model_type.basic_1d, [L], [N]) with E and nu set,
+  3. Iteration growth (roadtex only, the issue's N^0.3 target): the self-affine case at tol 1e-8
+     for N = 2^10, 2^12, ..., 2^18 (2^20 with --large; up to 2^14 with --quick) and seeds 0, 1, 2:
+     iterations and time per N, and the exponent b of a least-squares fit iterations ~ N^b over
+     the whole range and over 2^10..2^16.
+  4. tamaas 2.9.0 on the same problems: Model(model_type.basic_1d, [L], [N]) with E and nu set,
      PolonskyKeerRey(model, heights, tol, pressure, pressure).solve(P), cold start (a new model
      and solver for every run), one thread. The heights go to tamaas as they are: tamaas's
      "surface" is the rigid surface with contact at its peaks, as roadtex's road profile; a check
@@ -440,6 +444,39 @@ def case_self_affine(sizes: list[int], max_repeats: int, tamaas_sign: float | No
     print(flush=True)
 
 
+def case_iteration_growth(sizes: list[int], seeds: tuple[int, ...]) -> None:
+    print(f"Case 3: iteration growth, the self-affine case of case 2 (tol {SA_TOL:g}), seeds {list(seeds)}, "
+          "roadtex element kernel; b = exponent of a least-squares fit iterations ~ N^b of the mean iterations")
+    table = Table([("N", "d", 8), ("iterations by seed", "s", 20), ("mean", ".1f", 6), ("time[s]", ".3f", 8)])
+    table.header()
+    means = []
+    for n in sizes:
+        counts = []
+        times = []
+        for seed in seeds:
+            heights = self_affine_profile(n, SA_LENGTH, hurst=SA_HURST, rms_slope=SA_RMS_SLOPE, cutoff_fraction=SA_CUTOFF,
+                                          seed=seed)
+            t0 = time.perf_counter()
+            r = solve_roadtex(heights, SA_LENGTH / n, SA_YOUNGS, SA_POISSON, SA_PRESSURE, SA_TOL)
+            times.append(time.perf_counter() - t0)
+            counts.append(r.iterations if r.converged else -1)
+        means.append(float(np.mean(counts)))
+        table.row([n, " ".join(str(c) for c in counts), means[-1], min(times)])
+        ROWS.append(dict(case="iteration_growth", n=n, tol=SA_TOL, seeds=list(seeds), iterations=counts,
+                         mean_iterations=means[-1], best_time_s=min(times)))
+    sizes_array = np.array(sizes, dtype=float)
+    means_array = np.array(means)
+    ranges = [(sizes[0], sizes[-1])]
+    if sizes[-1] > 1 << 16 and 1 << 16 in sizes:
+        ranges.append((sizes[0], 1 << 16))
+    for lo, hi in ranges:
+        pick = (sizes_array >= lo) & (sizes_array <= hi)
+        exponent = np.polyfit(np.log(sizes_array[pick]), np.log(means_array[pick]), 1)[0]
+        print(f"  iterations ~ N^{exponent:.3f} over N = {lo}..{hi} (target: exponent <= 0.3)")
+        ROWS.append(dict(case="iteration_growth_fit", n_min=lo, n_max=hi, exponent=float(exponent)))
+    print(flush=True)
+
+
 # --------------------------------------------------------------------------- main
 
 
@@ -461,11 +498,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         wg_sizes = [1 << 10, 1 << 12]
         sa_sizes = [1000, 1 << 10, 1 << 12]
+        growth_sizes = [1 << k for k in range(10, 15, 2)]
     else:
         wg_sizes = [1 << k for k in range(10, 17)]
         sa_sizes = [1000, 1 << 12, 1 << 14, 1 << 16]
+        growth_sizes = [1 << k for k in range(10, 19, 2)]
     if args.large:
         sa_sizes.append(1 << 18)
+        growth_sizes.append(1 << 20)
 
     started = time.perf_counter()
     print(f"roadtex {roadtex.__version__} vs tamaas: speed against error")
@@ -486,6 +526,7 @@ def main(argv: list[str] | None = None) -> int:
     tamaas_sign = check_tamaas_problem(args.seed) if use_tamaas else None
     case_westergaard(wg_sizes, args.max_repeats, tamaas_sign)
     case_self_affine(sa_sizes, args.max_repeats, tamaas_sign, args.tamaas_max_n, args.seed)
+    case_iteration_growth(growth_sizes, (0, 1, 2))
 
     elapsed = time.perf_counter() - started
     print(f"total {elapsed:.0f} s; load average at end {os.getloadavg()[0]:.2f}")
