@@ -18,7 +18,9 @@ use crate::error::{ContactError, Result};
 
 const MAX_SWEEPS: usize = 500;
 
-pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale: f64) -> Result<Outcome> {
+/// `converged` means both that the set settled and that the residual is within `tol`: a settled
+/// set solved to rounding can still miss a very small tol on an ill-conditioned problem.
+pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale: f64, tol: f64) -> Result<Outcome> {
     let n = z.len();
     let target_sum = mean_strain * n as f64;
     let mut active: Vec<usize> = (0..n).collect();
@@ -49,7 +51,7 @@ pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale:
         if next == active {
             let pressure_nonneg: Vec<f64> = pressure.iter().map(|&p| p.max(0.0)).collect();
             let res = residual(&pressure_nonneg, &gap, scale);
-            return Ok(Outcome { pressure: pressure_nonneg, gap, iterations: sweep, residual: res, converged: true });
+            return Ok(Outcome { pressure: pressure_nonneg, gap, iterations: sweep, residual: res, converged: res <= tol });
         }
         if next.is_empty() {
             return Err(ContactError::DirectSolverFailed("the trial contact set became empty".into()));

@@ -350,7 +350,7 @@ impl ContactSolver {
                 let initial: Option<Vec<f64>> = initial_pressure.map(|q| q.iter().map(|&x| x / e_star).collect());
                 cg::solve(op, pair_sums, &z, strain, scale, self.options.tol, self.options.max_iterations, initial.as_deref(), work)
             }
-            Method::Direct => direct::solve(op, &z, strain, scale)?,
+            Method::Direct => direct::solve(op, &z, strain, scale, self.options.tol)?,
         };
         let pressure = outcome.pressure.iter().map(|&q| q * e_star).collect();
         let envelope = outcome

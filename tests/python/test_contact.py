@@ -190,6 +190,19 @@ def test_flat_profile_direct_solve(n):
     assert result.contact_fraction == 1.0
 
 
+def test_direct_solve_reports_a_residual_beyond_tol_as_not_converged():
+    """For method="direct", converged means the residual met tol, as for CG, not only that the
+    active set settled: a tol below rounding is settled yet missed."""
+    heights = self_affine_profile(256, 256 * 1e-4, rms_slope=ROAD_SLOPE, seed=4)
+    settled = solve(heights, 1e-4, TREAD_E, TYRE_P, method="direct", tol=1e-12)
+    assert settled.converged and settled.residual <= 1e-12
+    missed = roadtex.contact(heights, 1e-4, TREAD_E, TYRE_P, method="direct", tol=1e-300, raise_on_nonconvergence=False)
+    assert not missed.converged and missed.residual > 1e-300
+    np.testing.assert_array_equal(missed.pressure, settled.pressure)
+    with pytest.raises(RuntimeError, match="residual"):
+        roadtex.contact(heights, 1e-4, TREAD_E, TYRE_P, method="direct", tol=1e-300)
+
+
 # --------------------------------------------------------------------------------------------
 # CG against the dense direct solve
 
