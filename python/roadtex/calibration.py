@@ -33,8 +33,9 @@ from typing import Hashable, Mapping, Sequence
 import numpy as np
 import polars as pl
 
-from roadtex.contact import _positive_int, contact_many
-from roadtex.spectra import (REFERENCE_TEXTURE, BandKind, _check_kind, _check_signals, _positive, band_levels,
+from roadtex._checks import positive, positive_int
+from roadtex.contact import contact_many
+from roadtex.spectra import (REFERENCE_TEXTURE, BandKind, _check_kind, _check_signals, band_levels,
                              band_table)
 
 DEFAULT_MODULI = tuple(float(f"{1e6 * 10 ** (k / 10):.4g}") for k in range(11))
@@ -142,7 +143,7 @@ def _noise_table(noise_levels: object, sites: list[Hashable], kind: BandKind, ba
         elif "frequency" in noise_levels.columns:
             if speed_kmh is None:
                 raise ValueError("noise_levels gives 'frequency' (Hz): pass speed_kmh to map it to wavelength bands")
-            speed = _positive(speed_kmh, "speed_kmh", "km/h")
+            speed = positive(speed_kmh, "speed_kmh", "km/h")
             frequency = noise_levels["frequency"].cast(pl.Float64).to_numpy()
             if not np.all(np.isfinite(frequency) & (frequency > 0.0)):
                 raise ValueError("noise_levels frequency must be positive finite values in Hz")
@@ -233,7 +234,7 @@ def calibrate_modulus(
         ValueError: bad input, named. ConvergenceError: a contact problem did not converge.
     """
     kind = _check_kind(kind)
-    dx = _positive(dx, "dx", "metres")
+    dx = positive(dx, "dx", "metres")
     sites, segments = _site_profiles(profiles)
     grid = np.atleast_1d(np.asarray(moduli, dtype=np.float64))
     if grid.ndim != 1 or grid.size < 2:
@@ -241,8 +242,8 @@ def calibrate_modulus(
     if not np.all(np.isfinite(grid) & (grid > 0.0)):
         raise ValueError("moduli must be positive finite values of E in pascals")
     grid = np.unique(grid)
-    n_bootstrap = _positive_int(n_bootstrap, "n_bootstrap")
-    confidence = _positive(confidence, "confidence", "(a fraction)")
+    n_bootstrap = positive_int(n_bootstrap, "n_bootstrap")
+    confidence = positive(confidence, "confidence", "(a fraction)")
     if not confidence < 1.0:
         raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
     noise = _noise_table(noise_levels, sites, kind, bands, speed_kmh)

@@ -11,7 +11,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex.contact import ContactMeasures, _as_float_array, _positive_int, _scalar, _whole_number
+from roadtex._checks import as_float_array, positive_int, to_float, whole_number
+from roadtex.contact import ContactMeasures
 
 
 @dataclass(frozen=True)
@@ -123,10 +124,10 @@ def clapp(
         ValueError: bad input, with the argument and the problem named (the same checks and
             messages as :func:`roadtex.contact`).
     """
-    z = _as_float_array(heights, "heights", 1)
-    dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
-                            _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
-    sub = _positive_int(sub_profile, "sub_profile")
-    lap = _whole_number(overlap, "overlap", 0)
+    z = as_float_array(heights, "heights", 1)
+    dx_f, e_f, p_f, nu_f = (to_float(dx, "dx"), to_float(youngs_modulus, "youngs_modulus"),
+                            to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
+    sub = positive_int(sub_profile, "sub_profile")
+    lap = whole_number(overlap, "overlap", 0)
     pressure, envelope, count, sweeps = _core.clapp(z, dx_f, e_f, nu_f, p_f, sub, lap, bool(wrap))
     return ClappResult(z, dx_f, pressure, envelope, e_f, nu_f, p_f, sub, lap, bool(wrap), count, sweeps)

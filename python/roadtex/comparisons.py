@@ -15,7 +15,8 @@ from typing import Sequence
 import numpy as np
 import polars as pl
 
-from roadtex.contact import _as_float_array, _scalar, contact, contact_many
+from roadtex._checks import as_float_array, to_float
+from roadtex.contact import contact, contact_many
 from roadtex.envelopes import von_meier
 from roadtex.reference import flat_punch_element_pressure
 
@@ -53,8 +54,8 @@ def valleys(heights: np.ndarray | Sequence[float], dx: float, *, d_star: float =
         the bounding asperities), ``x_start``, ``x_end``, ``x_deepest`` (m, positions i dx; the
         deepest point below the line), ``width`` (m, (end - start) dx) and ``depth`` (m).
     """
-    z = _as_float_array(heights, "heights", 1)
-    dx_f = _scalar(dx, "dx")
+    z = as_float_array(heights, "heights", 1)
+    dx_f = to_float(dx, "dx")
     envelope = von_meier(z, dx_f, d_star)
     rows = []
     for start, end in _bridged_runs(envelope > z):
@@ -76,8 +77,8 @@ def penetration(heights: np.ndarray, envelope: np.ndarray, valley_table: pl.Data
     joining the valley's bounding asperities. Between 0 and the valley's depth when the rubber rests
     on both asperities; equal to the depth when it touches the bottom; negative when the rubber
     hangs above the asperities themselves (a stiff rubber that does not reach them)."""
-    z = _as_float_array(heights, "heights", 1)
-    e = _as_float_array(envelope, "envelope", 1)
+    z = as_float_array(heights, "heights", 1)
+    e = as_float_array(envelope, "envelope", 1)
     if e.shape != z.shape:
         raise ValueError(f"envelope has {e.size} points, heights {z.size}: they must match")
     starts, ends = valley_table["start"].to_numpy(), valley_table["end"].to_numpy()
@@ -113,8 +114,8 @@ def valley_penetration(heights: np.ndarray | Sequence[float], dx: float, *,
         ``von_meier_ratio`` and ``inrets_ratio`` (penetration clipped to [0, depth], over depth:
         0 where the rubber does not get below that line, 1 where it touches the bottom).
     """
-    z = _as_float_array(heights, "heights", 1)
-    dx_f = _scalar(dx, "dx")
+    z = as_float_array(heights, "heights", 1)
+    dx_f = to_float(dx, "dx")
     moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64))
     table = valleys(z, dx_f, d_star=d_star, min_depth=min_depth)
     vm = penetration(z, von_meier(z, dx_f, d_star), table)
@@ -144,8 +145,8 @@ def von_meier_envelopes(heights: np.ndarray | Sequence[float], dx: float, *,
         ``envelope`` (m) and ``depth`` (m, envelope - height). The larger d*, the lower the
         envelope: the rubber sags deeper into the valleys.
     """
-    z = _as_float_array(heights, "heights", 1)
-    dx_f = _scalar(dx, "dx")
+    z = as_float_array(heights, "heights", 1)
+    dx_f = to_float(dx, "dx")
     index = np.arange(z.size)
     frames = []
     for d_star in d_stars:
@@ -172,7 +173,7 @@ def edge_effect(*, points: int = 1024, length: float = 0.1, youngs_modulus: floa
         ``pressure_ratio`` (p / P).
     """
     n = int(points)
-    dx = _scalar(length, "length") / n
+    dx = to_float(length, "length") / n
     flat = np.zeros(n)
     x = (np.arange(n) + 0.5) * dx
     pressures = {

@@ -12,6 +12,7 @@ from typing import Iterator, Literal, Sequence
 import numpy as np
 
 from roadtex import _core
+from roadtex._checks import as_float_array, positive_int, to_float
 
 Kernel = Literal["element", "spectral"]
 Method = Literal["cg", "direct"]
@@ -180,34 +181,6 @@ class ContactBatch:
                 yield self[segment, modulus]
 
 
-def _as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
-    try:
-        array = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric: {exc}") from None
-    if array.ndim != ndim:
-        expected = "a 1-D array (one profile)" if ndim == 1 else "a 2-D array (one segment per row)"
-        raise ValueError(f"{name} must be {expected}, got an array of shape {array.shape}")
-    return np.ascontiguousarray(array)
-
-
-def _scalar(value: object, name: str) -> float:
-    try:
-        return float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-
-
-def _whole_number(value: object, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < minimum:
-        raise ValueError(f"{name} must be at least {minimum} (a whole number), got {value!r}")
-    return int(value)
-
-
-def _positive_int(value: object, name: str) -> int:
-    return _whole_number(value, name, 1)
-
-
 def contact(
     heights: np.ndarray | Sequence[float],
     dx: float,
@@ -254,13 +227,13 @@ def contact(
             (peak-to-valley above 1 m, rms above 0.25 m, or median slope above 20, linear trend
             removed): probably millimetres. The problem is still solved as given.
     """
-    z = _as_float_array(heights, "heights", 1)
-    dx_f, e_f, p_f, nu_f = (_scalar(dx, "dx"), _scalar(youngs_modulus, "youngs_modulus"),
-                            _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson"))
+    z = as_float_array(heights, "heights", 1)
+    dx_f, e_f, p_f, nu_f = (to_float(dx, "dx"), to_float(youngs_modulus, "youngs_modulus"),
+                            to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
     _warn_if_implausible(z, dx_f, "heights")
     pressure, envelope, iterations, residual, converged = _core.solve(
-        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, _scalar(tol, "tol"),
-        _positive_int(max_iterations, "max_iterations"),
+        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, to_float(tol, "tol"),
+        positive_int(max_iterations, "max_iterations"),
     )
     if raise_on_nonconvergence and not converged:
         raise ConvergenceError(
@@ -305,16 +278,16 @@ def contact_many(
     Returns:
         A :class:`ContactBatch` indexed ``[segment, modulus]``.
     """
-    heights = _as_float_array(segments, "segments", 2)
+    heights = as_float_array(segments, "segments", 2)
     moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
     if moduli.ndim != 1:
         raise ValueError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
-    threads = None if threads is None else _positive_int(threads, "threads")
-    dx_f, p_f, nu_f = _scalar(dx, "dx"), _scalar(mean_pressure, "mean_pressure"), _scalar(poisson, "poisson")
+    threads = None if threads is None else positive_int(threads, "threads")
+    dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     _warn_if_implausible(heights, dx_f, "segments")
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
-        _scalar(tol, "tol"), _positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
+        to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
     )
     if raise_on_nonconvergence and not converged.all():
         bad = np.argwhere(~converged)

@@ -7,7 +7,7 @@ from typing import Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex.contact import _as_float_array, _scalar
+from roadtex._checks import as_float_array, to_float
 
 
 def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 54.0) -> np.ndarray:
@@ -27,5 +27,5 @@ def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 
     Returns:
         The envelope (m), same length as ``heights``; equal to them at both ends of every arc.
     """
-    z = _as_float_array(heights, "heights", 1)
-    return _core.von_meier(z, _scalar(dx, "dx"), _scalar(d_star, "d_star"))
+    z = as_float_array(heights, "heights", 1)
+    return _core.von_meier(z, to_float(dx, "dx"), to_float(d_star, "d_star"))

@@ -8,7 +8,8 @@ from typing import Literal
 import numpy as np
 import polars as pl
 
-from roadtex.profile import Profile, _fmt, _positive, _scalar
+from roadtex._checks import fraction, positive
+from roadtex.profile import Profile, _fmt
 
 _ETD_OFFSET = 0.2e-3  # m, ISO 13473-1: ETD = 0.2 mm + 0.8 MPD
 
@@ -108,12 +109,12 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     Raises:
         ValueError: bad settings, or a profile shorter than one segment.
     """
-    spacing = _positive(sample_spacing, "sample_spacing")
-    seg_length = _positive(segment_length, "segment_length")
-    alpha = None if spike_alpha is None else _positive(spike_alpha, "spike_alpha", "a slope, no unit")
-    max_dropout = _fraction(max_dropout_fraction, "max_dropout_fraction")
-    max_spike = _fraction(max_spike_fraction, "max_spike_fraction")
-    min_valid = _fraction(min_valid_fraction, "min_valid_fraction")
+    spacing = positive(sample_spacing, "sample_spacing")
+    seg_length = positive(segment_length, "segment_length")
+    alpha = None if spike_alpha is None else positive(spike_alpha, "spike_alpha", "a slope, no unit")
+    max_dropout = fraction(max_dropout_fraction, "max_dropout_fraction")
+    max_spike = fraction(max_spike_fraction, "max_spike_fraction")
+    min_valid = fraction(min_valid_fraction, "min_valid_fraction")
     if slope_suppression not in ("regression", "highpass"):
         raise ValueError(f"slope_suppression must be 'regression' or 'highpass', got {slope_suppression!r}")
     if not isinstance(profile, Profile):
@@ -135,9 +136,9 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         despiked, spikes = resampled, np.zeros(resampled.heights.size, dtype=bool)
     filled = despiked.fill_dropouts()
     if lowpass_wavelength is not None:
-        filled = filled.lowpass(_positive(lowpass_wavelength, "lowpass_wavelength"))
+        filled = filled.lowpass(positive(lowpass_wavelength, "lowpass_wavelength"))
     if slope_suppression == "highpass":
-        filled = filled.highpass(_positive(highpass_wavelength, "highpass_wavelength"))
+        filled = filled.highpass(positive(highpass_wavelength, "highpass_wavelength"))
 
     used = n_segments * points
     z = filled.heights[:used].reshape(n_segments, points)
@@ -183,14 +184,8 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
                f"{_fmt(mean_depth * 1e3)} mm from {n_valid} of {n_segments} segments")
     used_profile = Profile(filled.heights, filled.positions, filled.dx, filled.metadata,
                            filled.history + (summary,))
-    fraction = n_valid / n_segments
+    share_valid = n_valid / n_segments
     return MpdResult(mpd=mean_depth, etd=_ETD_OFFSET + 0.8 * mean_depth if n_valid else float("nan"),
-                     std=std, segments=table, valid_segments=n_valid, valid_fraction=fraction,
-                     is_valid=fraction >= min_valid, profile=used_profile, parameters=parameters)
+                     std=std, segments=table, valid_segments=n_valid, valid_fraction=share_valid,
+                     is_valid=share_valid >= min_valid, profile=used_profile, parameters=parameters)
 
-
-def _fraction(value: object, name: str) -> float:
-    number = _scalar(value, name)
-    if not 0.0 <= number <= 1.0:
-        raise ValueError(f"{name} must be between 0 and 1, got {value!r}")
-    return number

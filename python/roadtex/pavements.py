@@ -36,7 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from roadtex.profile import Profile, _positive, _scalar
+from roadtex._checks import finite_number, positive
+from roadtex.profile import Profile
 
 _KINDS = ("cement_concrete", "dense_asphalt", "porous_asphalt", "surface_dressing")
 
@@ -89,8 +90,8 @@ def synthetic_pavement(kind: str, length: float, dx: float, *, seed: int = 0, **
     """
     if kind not in _KINDS:
         raise ValueError(f"unknown pavement kind {kind!r}; known kinds: {', '.join(_KINDS)}")
-    length_f = _positive(length, "length")
-    dx_f = _positive(dx, "dx")
+    length_f = positive(length, "length")
+    dx_f = positive(dx, "dx")
     n = int(round(length_f / dx_f))
     if n < 10:
         raise ValueError(f"length {length_f:g} m is fewer than 10 samples of dx {dx_f:g} m")
@@ -106,7 +107,7 @@ def synthetic_pavement(kind: str, length: float, dx: float, *, seed: int = 0, **
                 raise ValueError(f"{key} must be True or False, got {value!r}")
             parameters[key] = bool(value)
         else:
-            number = _scalar(value, key)
+            number = finite_number(value, key)
             if number < 0:
                 raise ValueError(f"{key} must be >= 0, got {value!r}")
             parameters[key] = number

@@ -23,6 +23,8 @@ from typing import Iterable, Literal
 import numpy as np
 import polars as pl
 
+from roadtex._checks import finite_number, positive
+
 # Above this magnitude (m) a height or position is a wrong unit or a corrupt file, not a road, and
 # sums of squares over millions of samples would start to lose meaning.
 _MAX_MAGNITUDE = 1e9
@@ -43,25 +45,7 @@ _ROADTEX_TAG = "roadtex-profile"
 
 
 # --------------------------------------------------------------------------------------------------
-# small validation helpers, in the style of roadtex.contact
-
-def _scalar(value: object, name: str) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return number
-
-
-def _positive(value: object, name: str, unit: str = "m") -> float:
-    number = _scalar(value, name)
-    if number <= 0.0:
-        raise ValueError(f"{name} must be positive ({unit}), got {value!r}")
-    return number
+# array checks of this module (scalar checks: roadtex._checks)
 
 
 def _as_1d(values: object, name: str) -> np.ndarray:
@@ -194,7 +178,7 @@ class Profile:
             kind = "duplicate" if steps[bad] == 0 else "decreasing"
             raise ValueError(f"positions must be strictly increasing: {kind} position at sample {bad + 1} "
                              f"({positions[bad]:.9g} m then {positions[bad + 1]:.9g} m)")
-        dx = _positive(self.dx, "dx")
+        dx = positive(self.dx, "dx")
         object.__setattr__(self, "heights", _frozen(heights))
         object.__setattr__(self, "positions", _frozen(positions))
         object.__setattr__(self, "dx", dx)
@@ -207,8 +191,8 @@ class Profile:
                      metadata: dict[str, object] | None = None, history: Iterable[str] = ()) -> "Profile":
         """A uniform profile from heights (m) on a grid of spacing ``dx`` (m) starting at ``start`` (m)."""
         z = _as_1d(heights, "heights")
-        dx_f = _positive(dx, "dx")
-        x = _scalar(start, "start") + dx_f * np.arange(z.size)
+        dx_f = positive(dx, "dx")
+        x = finite_number(start, "start") + dx_f * np.arange(z.size)
         return cls(z, x, dx_f, dict(metadata or {}), tuple(history))
 
     def _with(self, heights: np.ndarray, positions: np.ndarray | None = None, dx: float | None = None,
@@ -258,8 +242,8 @@ class Profile:
         Raises:
             ValueError: nothing would be left between the plates.
         """
-        threshold_f = _positive(threshold, "threshold")
-        margin_f = _scalar(margin, "margin")
+        threshold_f = positive(threshold, "threshold")
+        margin_f = finite_number(margin, "margin")
         if margin_f < 0:
             raise ValueError(f"margin must be >= 0 (m), got {margin!r}")
         z, x = self.heights, self.positions
@@ -301,7 +285,7 @@ class Profile:
         sampling it also flags steep but real stone edges. Alpha = 6 suits coarse chip seals
         measured by the CAPTIF laser (its authors' setting).
         """
-        alpha_f = _positive(alpha, "alpha", "a slope, no unit")
+        alpha_f = positive(alpha, "alpha", "a slope, no unit")
         z = self.heights.copy()
         valid_index = np.flatnonzero(~np.isnan(z))
         jump = np.abs(np.diff(z[valid_index])) >= alpha_f * np.diff(self.positions[valid_index])
@@ -336,7 +320,7 @@ class Profile:
         with no valid reading is a drop-out (NaN): that includes every other interval when ``dx`` is
         finer than the data, which :meth:`fill_dropouts` then interpolates.
         """
-        new_dx = _positive(dx, "dx")
+        new_dx = positive(dx, "dx")
         left = self.positions[0] - 0.5 * self.dx
         n_bins = max(1, int(math.ceil(self.length / new_dx - 1e-9)))
         scaled = self.positions - left
@@ -385,7 +369,7 @@ class Profile:
         return self._filtered(cutoff_wavelength, "high")
 
     def _filtered(self, cutoff_wavelength: float, kind: str) -> "Profile":
-        wavelength = _positive(cutoff_wavelength, "cutoff_wavelength")
+        wavelength = positive(cutoff_wavelength, "cutoff_wavelength")
         self._require_grid(f"{kind}pass")
         if wavelength <= 2.0 * self.dx:
             raise ValueError(f"cutoff_wavelength {wavelength:.3g} m must exceed twice dx ({2 * self.dx:.3g} m)")
@@ -445,8 +429,8 @@ class Profile:
         Needs a uniform, NaN-free profile (:meth:`conditioned`).
         """
         self._require_grid("segments")
-        length_f = _positive(length, "length")
-        overlap_f = _scalar(overlap, "overlap")
+        length_f = positive(length, "length")
+        overlap_f = finite_number(overlap, "overlap")
         points = int(round(length_f / self.dx))
         overlap_points = int(round(overlap_f / self.dx))
         if points < 2:
@@ -914,8 +898,8 @@ def _read_csv(data: bytes, name: str, options: dict) -> _Read:
 def _grid_positions(n: int, options: dict, name: str) -> np.ndarray:
     if options.get("dx") is None:
         raise ValueError(f"{name}: heights only (no distance column): give dx= (m)")
-    dx = _positive(options["dx"], "dx")
-    return _scalar(options.get("start", 0.0), "start") + dx * np.arange(n)
+    dx = positive(options["dx"], "dx")
+    return finite_number(options.get("start", 0.0), "start") + dx * np.arange(n)
 
 
 def _sidecar(path: Path) -> Path:
@@ -1079,7 +1063,7 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     positions, heights, note = _sorted_samples(positions, heights, name)
     if positions.size < 2:
         raise ValueError(f"{name}: fewer than 2 distinct positions")
-    dx_f = _positive(dx, "dx") if dx is not None else _nominal_dx(positions)
+    dx_f = positive(dx, "dx") if dx is not None else _nominal_dx(positions)
     metadata.setdefault("source", name)
     encoding_note = f", {encoding}" if encoding not in (None, "utf-8") else ""
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "

@@ -54,7 +54,7 @@ from typing import Literal, Sequence
 import numpy as np
 import polars as pl
 
-from roadtex.contact import _as_float_array, _scalar
+from roadtex._checks import as_float_array, positive
 
 REFERENCE_TEXTURE = 1e-6
 """Reference texture amplitude, 1 um = 1e-6 m (ISO 13473-4): L_tx = 20 lg(a_rms / 1e-6 m)."""
@@ -100,12 +100,6 @@ _BLOCK_VALUES = 1 << 22
 # Input checks
 # --------------------------------------------------------------------------------------------------
 
-def _positive(value: object, name: str, unit: str) -> float:
-    number = _scalar(value, name)
-    if not (np.isfinite(number) and number > 0.0):
-        raise ValueError(f"{name} must be a positive finite number of {unit}, got {value!r}")
-    return number
-
 
 def _check_kind(kind: object) -> BandKind:
     if kind not in ("third_octave", "octave"):
@@ -115,7 +109,7 @@ def _check_kind(kind: object) -> BandKind:
 
 def _check_signals(values: object, name: str, ndim: int) -> np.ndarray:
     """A finite float array of the given ndim with at least MIN_POINTS points per signal."""
-    array = _as_float_array(values, name, ndim)
+    array = as_float_array(values, name, ndim)
     if array.size == 0:
         raise ValueError(f"{name} is empty")
     rows = array.reshape(-1, array.shape[-1])
@@ -196,10 +190,10 @@ def band_table(dx: float, length: float, kind: BandKind = "third_octave", *,
         limits met) and ``reason`` (why not reported; null when reported).
     """
     kind = _check_kind(kind)
-    dx = _positive(dx, "dx", "metres")
-    length = _positive(length, "length", "metres")
-    per_wavelength = _positive(min_points_per_wavelength, "min_points_per_wavelength", "sampling intervals")
-    per_length = _positive(min_wavelengths_per_length, "min_wavelengths_per_length", "wavelengths")
+    dx = positive(dx, "dx", "metres")
+    length = positive(length, "length", "metres")
+    per_wavelength = positive(min_points_per_wavelength, "min_points_per_wavelength", "sampling intervals")
+    per_length = positive(min_wavelengths_per_length, "min_wavelengths_per_length", "wavelengths")
     n_points = _points(dx, length)
     length = n_points * dx
     bands = _bands(kind)
@@ -317,8 +311,8 @@ def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, ki
     """
     kind = _check_kind(kind)
     signals = _check_signals(values, "values", 2)
-    dx = _positive(dx, "dx", "metres")
-    reference = _positive(reference, "reference", "the signal's unit")
+    dx = positive(dx, "dx", "metres")
+    reference = positive(reference, "reference", "the signal's unit")
     window, detrend = _window_and_detrend(bool(periodic), window, detrend)
     n_signals, n_points = signals.shape
     table = band_table(dx, n_points * dx, kind)
@@ -428,7 +422,7 @@ def time_frequency(wavelength_m: float | np.ndarray, speed_kmh: float) -> float 
     The conversion Clapp used: a vehicle at V km/h passes V / 3.6 metres of road per second, so a
     wavelength of 8 mm at 80 km/h excites 22.2 / 0.008 = 2,778 Hz.
     """
-    speed = _positive(speed_kmh, "speed_kmh", "km/h")
+    speed = positive(speed_kmh, "speed_kmh", "km/h")
     wavelength = np.asarray(wavelength_m, dtype=np.float64)
     if not np.all(np.isfinite(wavelength) & (wavelength > 0.0)):
         raise ValueError("wavelength_m must be positive finite wavelengths in metres")
@@ -442,7 +436,7 @@ def with_time_frequency(table: pl.DataFrame, speed_kmh: float) -> pl.DataFrame:
     Adds ``speed_kmh``, ``centre_frequency``, ``lower_frequency`` (from ``upper_wavelength``) and
     ``upper_frequency`` (from ``lower_wavelength``), all f = V / wavelength.
     """
-    speed = _positive(speed_kmh, "speed_kmh", "km/h")
+    speed = positive(speed_kmh, "speed_kmh", "km/h")
     missing = {"centre_wavelength", "lower_wavelength", "upper_wavelength"} - set(table.columns)
     if missing:
         raise ValueError(f"table lacks the band columns {sorted(missing)}; pass a band_table or levels table")

@@ -113,7 +113,7 @@ def test_synthetic_chip_seal_spectrum_is_near_the_real_captif_chip_seals():
     "args, options, message",
     [
         (("asphalt", 1.0, 1e-3), {}, "unknown pavement kind"),
-        (("dense_asphalt", 1.0, 0.0), {}, "dx must be positive"),
+        (("dense_asphalt", 1.0, 0.0), {}, "dx must be a positive finite number"),
         (("dense_asphalt", 1e-3, 1e-3), {}, "fewer than 10 samples"),
         (("dense_asphalt", 1.0, 1e-3), {"tining": True}, "unknown option"),
         (("dense_asphalt", 1.0, 1e-3), {"max_stone": -1.0}, ">= 0"),

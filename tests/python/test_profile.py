@@ -54,7 +54,7 @@ def test_arrays_are_read_only_and_steps_return_new_profiles():
         ([math.nan, math.nan], [0.0, 1.0], 1.0, "all heights are NaN"),
         ([1.0, 2.0, 3.0], [0.0, 2.0, 1.0], 1.0, "strictly increasing"),
         ([1.0, 2.0, 3.0], [0.0, 1.0, 1.0], 1.0, "duplicate"),
-        ([1.0, 2.0], [0.0, 1.0], 0.0, "dx must be positive"),
+        ([1.0, 2.0], [0.0, 1.0], 0.0, "dx must be a positive finite number"),
         ([1.0, 2.0], [0.0, math.nan], 1.0, "positions must be finite"),
         ([1e12, 2.0], [0.0, 1.0], 1.0, "wrong unit"),
         ([[1.0, 2.0]], [0.0, 1.0], 1.0, "1-D"),
