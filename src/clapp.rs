@@ -45,13 +45,12 @@
 //!
 //! Windows are independent: they are solved in parallel on rayon.
 
-use faer::prelude::*;
-use faer::{Mat, Side};
 use rayon::prelude::*;
 use std::ops::Range;
 
 use crate::error::{invalid, ContactError, Result};
 use crate::kernel::finite_coefficients;
+use crate::solver::direct::contact_set_solve;
 use crate::solver::{check_strain, validate_problem, Material};
 
 /// Sweeps with bulk changes of the trial set before the loop changes one point per sweep.
@@ -264,40 +263,19 @@ fn solve_window(coefficients: &[f64], heights: &[f64], core: Range<usize>, targe
     Err(ContactError::DirectSolverFailed(format!("a sub-profile's active set did not settle in {MAX_SWEEPS} sweeps")))
 }
 
-/// Pressures / E* on `active` and the approach c0 with C_AA q + c0 = z_A and sum of q over the
-/// active points of `core` equal to S. The finite log kernel is only conditionally positive
-/// definite, so the factor is taken of M = C_AA + s 1 1^T: with T = sum q, M q + (c0 - s T) 1 = z_A,
-/// so q = x - h y with x = M^-1 z_A, y = M^-1 1, h = c0 - s T fixed by the core's load. One
-/// refinement step recovers the digits the dense products lose.
+/// Pressures / E* on `active` and the approach c0 with C_AA q + c0 = z_A, the sum of q over the
+/// active points of `core` equal to S: the direct solver's dense solve, with the load counted on
+/// the core only.
 fn solve_on_set(coefficients: &[f64], z: &[f64], active: &[usize], core: &Range<usize>, target_sum: f64) -> Result<(Vec<f64>, f64)> {
-    let m = active.len();
-    let entry = |a: usize, b: usize| coefficients[active[a].abs_diff(active[b])];
-    let in_core: Vec<bool> = active.iter().map(|i| core.contains(i)).collect();
-    let mut shift = coefficients[0].abs();
-    for _ in 0..60 {
-        let matrix = Mat::from_fn(m, m, |a, b| entry(a, b) + shift);
-        let Ok(factor) = matrix.llt(Side::Lower) else {
-            shift *= 4.0;
-            continue;
-        };
-        let saddle = |rhs: &dyn Fn(usize) -> f64, sum: f64| {
-            let x = factor.solve(Mat::from_fn(m, 2, |a, col| if col == 0 { rhs(a) } else { 1.0 }));
-            let core_sum = |col: usize| (0..m).filter(|&a| in_core[a]).map(|a| x[(a, col)]).sum::<f64>();
-            let h = (core_sum(0) - sum) / core_sum(1);
-            let q: Vec<f64> = (0..m).map(|a| x[(a, 0)] - h * x[(a, 1)]).collect();
-            let total: f64 = q.iter().sum();
-            (q, h + shift * total)
-        };
-        let (mut q, mut approach) = saddle(&|a| z[active[a]], target_sum);
-        let residual: Vec<f64> = (0..m)
-            .map(|a| z[active[a]] - (0..m).map(|b| entry(a, b) * q[b]).sum::<f64>() - approach)
-            .collect();
-        let (dq, dc) = saddle(&|a| residual[a], 0.0);
-        q.iter_mut().zip(&dq).for_each(|(x, d)| *x += d);
-        approach += dc;
-        return Ok((q, approach));
-    }
-    Err(ContactError::DirectSolverFailed("no positive-definite shift of a sub-profile's contact-set matrix was found".into()))
+    contact_set_solve(
+        active.len(),
+        |a, b| coefficients[active[a].abs_diff(active[b])],
+        |a| z[active[a]],
+        |a| core.contains(&active[a]),
+        target_sum,
+        coefficients[0].abs(),
+    )
+    .ok_or_else(|| ContactError::DirectSolverFailed("no positive-definite shift of a sub-profile's contact-set matrix was found".into()))
 }
 
 #[cfg(test)]

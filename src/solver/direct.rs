@@ -61,38 +61,56 @@ pub(crate) fn solve<Op: Compliance>(op: &Op, z: &[f64], mean_strain: f64, scale:
     Err(ContactError::DirectSolverFailed(format!("the active set did not settle in {MAX_SWEEPS} sweeps")))
 }
 
-/// Pressures on `active` (p elsewhere 0) and the approach h solving C_AA p + h = z_A, sum p = S,
-/// with one step of iterative refinement (the dense products lose a few digits at N ~ 1000).
+/// Pressures on `active` (p elsewhere 0) and the approach h solving C_AA p + h = z_A, sum p = S.
 fn solve_on_set<Op: Compliance>(op: &Op, z: &[f64], active: &[usize], target_sum: f64) -> Result<(Vec<f64>, f64)> {
-    let m = active.len();
-    let mut shift = op.dense_entry(0, 0).abs();
+    contact_set_solve(
+        active.len(),
+        |a, b| op.dense_entry(active[a], active[b]),
+        |a| z[active[a]],
+        |_| true,
+        target_sum,
+        op.dense_entry(0, 0).abs(),
+    )
+    .ok_or_else(|| ContactError::DirectSolverFailed("no positive-definite shift of the contact-set matrix was found".into()))
+}
+
+/// The dense solve on one contact set of m points, shared with Clapp's windows: pressures q and
+/// the approach c0 with A q + c0 1 = z and the sum of q over the points `counted` selects equal to
+/// S, for the m x m compliance A of the set (`entry`).
+///
+/// A log kernel is only positive definite on zero-sum vectors (a uniform pressure moves the
+/// surface rigidly), so the factor is taken of M = A + s 1 1^T, s grown from `shift` until M
+/// factors: with T = sum q, M q + (c0 - s T) 1 = z, so q = x - h y with x = M^-1 z, y = M^-1 1
+/// and h = c0 - s T fixed by the load. One step of iterative refinement recovers the digits the
+/// dense products lose at N ~ 1000. None when no shift makes M factor.
+pub(crate) fn contact_set_solve(
+    m: usize,
+    entry: impl Fn(usize, usize) -> f64,
+    z: impl Fn(usize) -> f64,
+    counted: impl Fn(usize) -> bool,
+    target_sum: f64,
+    mut shift: f64,
+) -> Option<(Vec<f64>, f64)> {
     for _ in 0..60 {
-        let matrix = Mat::from_fn(m, m, |a, b| op.dense_entry(active[a], active[b]) + shift);
+        let matrix = Mat::from_fn(m, m, |a, b| entry(a, b) + shift);
         let Ok(factor) = matrix.llt(Side::Lower) else {
-            // The finite kernel is only conditionally positive definite: a larger shift fixes it.
             shift *= 4.0;
             continue;
         };
-        // (C_AA + c 1 1^T) p = rhs - (h - c S) 1 with sum p = S, for a given right-hand side.
         let saddle = |rhs: &dyn Fn(usize) -> f64, sum: f64| {
             let x = factor.solve(Mat::from_fn(m, 2, |a, col| if col == 0 { rhs(a) } else { 1.0 }));
-            let sum_rhs: f64 = (0..m).map(|a| x[(a, 0)]).sum();
-            let sum_one: f64 = (0..m).map(|a| x[(a, 1)]).sum();
-            let shifted = (sum_rhs - sum) / sum_one;
-            let p: Vec<f64> = (0..m).map(|a| x[(a, 0)] - shifted * x[(a, 1)]).collect();
-            (p, shifted + shift * sum)
+            let counted_sum = |col: usize| (0..m).filter(|&a| counted(a)).map(|a| x[(a, col)]).sum::<f64>();
+            let h = (counted_sum(0) - sum) / counted_sum(1);
+            let q: Vec<f64> = (0..m).map(|a| x[(a, 0)] - h * x[(a, 1)]).collect();
+            let total: f64 = q.iter().sum();
+            (q, h + shift * total)
         };
-        let (mut p, mut approach) = saddle(&|a| z[active[a]], target_sum);
-        let residual: Vec<f64> = (0..m)
-            .map(|a| {
-                let u: f64 = (0..m).map(|b| op.dense_entry(active[a], active[b]) * p[b]).sum();
-                z[active[a]] - u - approach
-            })
-            .collect();
-        let (dp, dh) = saddle(&|a| residual[a], 0.0);
-        p.iter_mut().zip(&dp).for_each(|(x, d)| *x += d);
-        approach += dh;
-        return Ok((p, approach));
+        let (mut q, mut approach) = saddle(&z, target_sum);
+        let residual: Vec<f64> = (0..m).map(|a| z(a) - (0..m).map(|b| entry(a, b) * q[b]).sum::<f64>() - approach).collect();
+        let (dq, dc) = saddle(&|a| residual[a], 0.0);
+        q.iter_mut().zip(&dq).for_each(|(x, d)| *x += d);
+        approach += dc;
+        return Some((q, approach));
     }
-    Err(ContactError::DirectSolverFailed("no positive-definite shift of the contact-set matrix was found".into()))
+    None
 }
