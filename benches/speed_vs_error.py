@@ -484,7 +484,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="small N only (a smoke run, well under a minute)")
-    parser.add_argument("--large", action="store_true", help="add the self-affine N = 2^18 (roadtex takes minutes)")
+    parser.add_argument("--large", action="store_true", help="add the self-affine N = 2^18 to case 2 and 2^20 to case 3 (minutes)")
     parser.add_argument("--json", metavar="PATH", help="also write every row to PATH as JSON")
     parser.add_argument("--seed", type=int, default=1, help="self-affine profile seed (default 1, as benches/contact.rs)")
     parser.add_argument("--max-repeats", type=int, default=3, help="best of at most this many runs (default 3)")

@@ -31,10 +31,11 @@ const MAX_SWEEPS: usize = 40;
 /// Inner solves of early sweeps, while the set is still changing, stop after reducing the
 /// residual by this factor: measured best among 0.3, 0.1, 0.02 and 0.005 for time to solution.
 const ROUGH_REDUCTION: f64 = 0.1;
-/// Most pairs of contact runs summed to assemble E (O(runs^2), about 4 ns a pair); beyond this
-/// only the largest islands are deflated, and the sweeps then need many more iterations (on a
-/// self-affine profile at N = 2^20, some 30,000 runs: 183 iterations in 63 s within this budget,
-/// 3,072 iterations in 279 s with a budget of 6.4e7).
+/// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 4 ns a pair: up to
+/// some 44,700 runs). Beyond, only the largest islands are deflated, and the sweeps then need many
+/// more iterations: on a self-affine profile at N = 2^20 (some 30,000 runs once the set settles)
+/// 142-154 iterations in 63-75 s within this budget, 3,072 iterations in 279 s when only 8,000
+/// runs were assembled, over 300 s with 4,000 (the earlier budget).
 const MAX_RUN_PAIRS: usize = 1_000_000_000;
 
 /// Coarse-space dimension (runs of contact, grouped beyond it) for a set of `runs` runs at size N.
@@ -42,7 +43,7 @@ const MAX_RUN_PAIRS: usize = 1_000_000_000;
 /// Rough sweeps refactor E every sweep, so they use a smaller space: 256 vectors up to N = 2^16,
 /// N / 256 beyond, and never fewer than one per three runs (with fewer, iterations grow faster
 /// with N: on self-affine profiles 65-75 iterations at 2^16 and 160-190 at 2^18, against 56-61
-/// and 83-84 with one per three runs). Precise sweeps use 1,024 to 2,048. Both stay at or below
+/// and 72-73 with one per three runs). Precise sweeps use 1,024 to 2,048. Both stay at or below
 /// N / 16, where the coarse work would outweigh the FFTs, and at or below 2,048 (factoring E
 /// costs dim^3 / 3).
 fn coarse_dim(n: usize, runs: usize, rough: bool) -> usize {

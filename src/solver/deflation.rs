@@ -213,7 +213,7 @@ impl CoarseSpace {
 
     /// Whether only the largest runs are kept (then C 1_A is needed to build the space).
     fn truncates(runs: usize, max_dim: usize, max_run_pairs: usize) -> bool {
-        runs > max_dim && runs * runs > max_run_pairs
+        runs > max_dim && runs * (runs + 1) / 2 > max_run_pairs
     }
 
     /// Whether [`CoarseSpace::new`] reads `displacement_of_set` for this many runs.
