@@ -41,7 +41,7 @@ KINDS = ("dense_asphalt", "porous_asphalt", "cement_concrete", "surface_dressing
 
 
 def write_archive(folder: Path, km: float, run_length: float) -> Path:
-    from roadtex.archive import write_synthetic_archive
+    from roadtex.demo import write_synthetic_archive
 
     runs = max(1, round(km * 1000 / run_length))
     per_kind = -(-runs // len(KINDS))
@@ -107,7 +107,7 @@ def main() -> int:
         except Exception as exc:
             print(f"  tamaas loop: skipped, tamaas not importable ({exc}); pip install -r scripts/requirements-bench.txt")
             return 0
-        from roadtex.profile import read_profile
+        from roadtex.profiles import read_profile
 
         table = pl.read_csv(manifest)
         picks = np.linspace(0, table.height - 1, min(args.tamaas_sample, table.height)).round().astype(int)

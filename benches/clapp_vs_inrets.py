@@ -66,8 +66,8 @@ from typing import Callable  # noqa: E402
 import numpy as np  # noqa: E402
 
 import roadtex  # noqa: E402
-from roadtex.clapp import clapp  # noqa: E402
-from roadtex.synthetic import self_affine_profile  # noqa: E402
+from roadtex.models.clapp import clapp  # noqa: E402
+from roadtex.profiles.synthetic import self_affine_profile  # noqa: E402
 
 N = 8192
 DX = 5e-5

@@ -16,8 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from roadtex.mpd import mpd
-from roadtex.profile import read_profile
+from roadtex.profiles import mpd, read_profile
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO.parent / "shared" / "data" / "captif-slp"

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import roadtex
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 LENGTH = 0.2  # m
 RMS_SLOPE = 0.2

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from roadtex.pavements import synthetic_pavement
-from roadtex.profile import Profile, read_profile, write_profile
+from roadtex.profiles import Profile, read_profile, write_profile
+from roadtex.profiles.pavements import synthetic_pavement
 
 
 def raw_profile(points: int, seed: int = 0) -> Profile:

@@ -76,7 +76,7 @@ import numpy as np
 
 import roadtex
 from roadtex import reference
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 try:
     import tamaas as tm

@@ -7,29 +7,57 @@ The periodic INRETS contact model (Klein & Hamet) solved in Rust; SI units throu
 >>> r = roadtex.contact(z, dx=1e-5, youngs_modulus=2.5e6, mean_pressure=2e5)
 >>> bool(abs(r.pressure.mean() / 2e5 - 1) < 1e-12)
 True
+
+Subpackages, by concern: :mod:`roadtex.profiles` (the profile model, conditioning, segments,
+readers, MPD, synthetic profiles), :mod:`roadtex.models` (contact, von Meier, Clapp, closed forms,
+comparisons), :mod:`roadtex.spectra` (bands, levels, regressions, calibration),
+:mod:`roadtex.archive` (the bulk job), :mod:`roadtex.report`; errors in :mod:`roadtex.errors`.
 """
 
+from roadtex import errors
 from roadtex._core import __version__
-from roadtex.contact import (ContactBatch, ContactResult, ConvergenceError, ImplausibleTextureWarning, RoadtexWarning,
-                             contact, contact_many)
-from roadtex.envelopes import von_meier
-from roadtex.clapp import ClappResult, clapp
-from roadtex.spectra import (BandLevels, band_levels, band_regressions, band_table, level_differences, octave_levels,
-                             pressure_levels, third_octave_levels, time_frequency, with_time_frequency)
-from roadtex.calibration import CalibrationResult, calibrate_modulus
 from roadtex.archive import ProcessingOptions, build_manifest, process, read_manifest, read_profiles
+from roadtex.errors import (
+                            ArchiveWriteError,
+                            ClappError,
+                            ConvergenceError,
+                            ImplausibleTextureWarning,
+                            InternalError,
+                            InvalidInputError,
+                            ManifestError,
+                            ProfileFormatError,
+                            RoadtexError,
+                            RoadtexWarning,
+                            SolverError,
+)
+from roadtex.models import ClappResult, ContactBatch, ContactResult, clapp, comparisons, contact, contact_many, reference, von_meier
+from roadtex.profiles import MpdResult, Profile, Segments, mpd, pavements, read_profile, synthetic, synthetic_pavement, write_profile
 from roadtex.report import build_report
+from roadtex.spectra import (
+                            BandLevels,
+                            CalibrationResult,
+                            band_levels,
+                            band_regressions,
+                            band_table,
+                            calibrate_modulus,
+                            level_differences,
+                            octave_levels,
+                            pressure_levels,
+                            third_octave_levels,
+                            time_frequency,
+                            with_time_frequency,
+)
 
-__all__ = ["ContactBatch", "ContactResult", "ConvergenceError", "ImplausibleTextureWarning", "RoadtexWarning", "contact", "contact_many", "von_meier", "__version__",
-           "ClappResult", "clapp",
-           "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
-           "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
-           "CalibrationResult", "calibrate_modulus",
-           "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report"]
-
-# Road profiles (issue 4). Note: ``roadtex.mpd`` is the function; the module stays importable.
-from roadtex.profile import Profile, Segments, read_profile, write_profile  # noqa: E402
-from roadtex.mpd import MpdResult, mpd  # noqa: E402
-from roadtex.pavements import synthetic_pavement  # noqa: E402
-
-__all__ += ["Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement"]
+__all__ = [
+    "__version__", "errors",
+    "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
+    "ClappError", "InternalError", "ArchiveWriteError", "RoadtexWarning", "ImplausibleTextureWarning",
+    "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
+    "comparisons", "reference",
+    "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
+    "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
+    "CalibrationResult", "calibrate_modulus",
+    "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report",
+    "Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement",
+    "pavements", "synthetic",
+]

@@ -1,5 +1,6 @@
 """Argument checks shared by the public functions: one place, so that the same mistake gets the
-same message whichever function it is made in. Each raises ValueError naming the argument."""
+same message whichever function it is made in. Each raises InvalidInputError (a ValueError)
+naming the argument."""
 
 from __future__ import annotations
 
@@ -7,16 +8,18 @@ import math
 
 import numpy as np
 
+from roadtex.errors import InvalidInputError
+
 
 def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
     """A contiguous float64 array of exactly ``ndim`` dimensions (values are not checked here)."""
     try:
         array = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric: {exc}") from None
+        raise InvalidInputError(f"{name} must be numeric: {exc}") from None
     if array.ndim != ndim:
         expected = "a 1-D array (one profile)" if ndim == 1 else "a 2-D array (one segment per row)"
-        raise ValueError(f"{name} must be {expected}, got an array of shape {array.shape}")
+        raise InvalidInputError(f"{name} must be {expected}, got an array of shape {array.shape}")
     return np.ascontiguousarray(array)
 
 
@@ -25,26 +28,26 @@ def to_float(value: object, name: str) -> float:
     try:
         return float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        raise InvalidInputError(f"{name} must be a number, got {value!r}") from None
 
 
 def finite_number(value: object, name: str) -> float:
     """A finite float; booleans are refused (True is not a length)."""
     if isinstance(value, bool):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+        raise InvalidInputError(f"{name} must be a number, got {value!r}")
     number = to_float(value, name)
     if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise InvalidInputError(f"{name} must be finite, got {value!r}")
     return number
 
 
 def positive(value: object, name: str, unit: str = "m") -> float:
     """A finite float above zero; ``unit`` goes into the message, worded as the Rust core's."""
     if isinstance(value, bool):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+        raise InvalidInputError(f"{name} must be a number, got {value!r}")
     number = to_float(value, name)
     if not (math.isfinite(number) and number > 0.0):
-        raise ValueError(f"{name} must be a positive finite number ({unit}), got {value!r}")
+        raise InvalidInputError(f"{name} must be a positive finite number ({unit}), got {value!r}")
     return number
 
 
@@ -52,16 +55,24 @@ def fraction(value: object, name: str) -> float:
     """A finite float in [0, 1]."""
     number = finite_number(value, name)
     if not 0.0 <= number <= 1.0:
-        raise ValueError(f"{name} must be between 0 and 1, got {value!r}")
+        raise InvalidInputError(f"{name} must be between 0 and 1, got {value!r}")
     return number
 
 
 def whole_number(value: object, name: str, minimum: int) -> int:
     """An int (numpy integers too, booleans not) of at least ``minimum``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < minimum:
-        raise ValueError(f"{name} must be at least {minimum} (a whole number), got {value!r}")
+        raise InvalidInputError(f"{name} must be at least {minimum} (a whole number), got {value!r}")
     return int(value)
 
 
 def positive_int(value: object, name: str) -> int:
     return whole_number(value, name, 1)
+
+
+def poisson_ratio(value: object, name: str = "poisson") -> float:
+    """A Poisson ratio in (-1, 0.5], the range of an isotropic elastic solid."""
+    number = finite_number(value, name)
+    if not -1.0 < number <= 0.5:
+        raise InvalidInputError(f"{name} must lie in (-1, 0.5], got {value!r}")
+    return number

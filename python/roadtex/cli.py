@@ -4,39 +4,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 
 def demo(args: argparse.Namespace) -> int:
     """``roadtex demo``: the real pipeline on the built-in archive (or a given manifest), then the report."""
-    from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process, write_synthetic_archive
-    from roadtex.report import build_report
+    from roadtex.demo import run_demo
 
-    out = Path(args.out)
-    started = time.perf_counter()
-    if args.manifest is None:
-        manifest = write_synthetic_archive(out / "archive", runs_per_kind=args.runs, run_length=args.run_length)
-        print(f"roadtex demo: wrote a synthetic archive of cement concrete, dense asphalt and porous asphalt, "
-              f"{args.runs} run(s) of {args.run_length:g} m each at 0.5 mm sampling -> {manifest}")
-    else:
-        manifest = Path(args.manifest)
-        print(f"roadtex demo: processing the archive listed in {manifest}")
-    options = ProcessingOptions(youngs_moduli=tuple(e * 1e6 for e in args.moduli), mean_pressure=args.pressure * 1e6)
-    print(f"roadtex demo: roadtex process {manifest} --out {out / 'results'}: periodic INRETS contact of every "
-          f"{options.segment_length:g} m segment at E = {', '.join(f'{e:g}' for e in args.moduli)} MPa, "
-          f"P = {args.pressure:g} MPa; texture and pressure spectra; MPD")
-    try:
-        summary = process(manifest, out / "results", options, quiet=args.quiet)
-    except (ManifestError, ArchiveWriteError, ValueError) as exc:
-        print(f"roadtex demo: error: {exc}", file=sys.stderr)
-        return 2
-    print(f"roadtex demo: {summary}")
-    report = build_report(out / "results", out_dir=out / "report", benchmark=args.benchmark)
-    print(f"roadtex demo: report with {len(report.figures)} figures -> {report.html.resolve()}")
-    print(f"roadtex demo: tables in {(out / 'results').resolve()} (segments.parquet, bands.parquet, runs.parquet, "
-          f"errors.parquet); done in {time.perf_counter() - started:.1f} s")
-    return 1 if summary.failed else 0
+    return run_demo(Path(args.out), runs=args.runs, run_length=args.run_length, moduli_mpa=args.moduli,
+                    pressure_mpa=args.pressure, manifest_path=args.manifest, benchmark=args.benchmark, quiet=args.quiet)
 
 
 def report_command(args: argparse.Namespace) -> int:

@@ -28,8 +28,8 @@ from roadtex.archive import (
     read_manifest,
     read_profiles,
 )
-from roadtex.pavements import synthetic_pavement
-from roadtex.profile import write_profile
+from roadtex.profiles import write_profile
+from roadtex.profiles.pavements import synthetic_pavement
 
 DX = 5e-4
 # Small segments keep the tests quick; the physics is the same as with the default 0.5 m.
@@ -162,7 +162,7 @@ def test_segment_rows_hold_physics_that_could_fail(reference: Path) -> None:
 
 def test_segment_values_match_a_direct_call_of_the_core(archive: Path, reference: Path) -> None:
     """The job's numbers are those of roadtex.contact on the same conditioned segment."""
-    from roadtex.profile import read_profile
+    from roadtex.profiles import read_profile
 
     table = read_manifest(archive)
     profile = read_profile(table["path"][1]).conditioned(dx=OPTIONS.dx, spike_alpha=OPTIONS.spike_alpha)
@@ -339,8 +339,7 @@ def test_cli_process_runs_end_to_end_and_reports_failures_by_exit_code(tmp_path:
 
 def test_real_captif_archive_end_to_end(tmp_path: Path, captif_dir: Path) -> None:
     """The three real CAPTIF chip-seal files through the whole job: plates trimmed, MPD as roadtex.mpd."""
-    from roadtex.mpd import mpd
-    from roadtex.profile import read_profile
+    from roadtex.profiles import mpd, read_profile
 
     manifest = build_manifest(captif_dir)
     options = ProcessingOptions(youngs_moduli=(2e6, 1e7), dx=2e-4, mpd_spike_alpha=6.0, tol=1e-8)

@@ -14,9 +14,10 @@ import numpy as np
 import polars as pl
 import pytest
 
-from roadtex import calibration, contact, contact_many, spectra
-from roadtex.calibration import calibrate_modulus
-from roadtex.synthetic import self_affine_profile
+from roadtex import contact, contact_many, spectra
+from roadtex.profiles.synthetic import self_affine_profile
+from roadtex.spectra import calibration
+from roadtex.spectra.calibration import calibrate_modulus
 
 POINTS, DX = 1024, 2e-4  # 204.8 mm segments: bands 16 mm to 0.5 mm reported
 SEGMENTS = 2
@@ -135,7 +136,7 @@ def test_working_in_blocks_changes_nothing(sites, monkeypatch):
     """Solves and bootstrap resamples are split into blocks to bound memory; the answer must not move."""
     noise = synthetic_noise(sites, 2.5e6)
     whole = calibrate_modulus(sites, DX, noise, moduli=(1.6e6, 2.5e6, 4.0e6), n_bootstrap=200)
-    monkeypatch.setattr(calibration, "_BLOCK_VALUES", 3000)  # one segment, 7 resamples per block
+    monkeypatch.setattr(calibration, "BLOCK_VALUES", 3000)  # one segment, 7 resamples per block
     blocks = calibrate_modulus(sites, DX, noise, moduli=(1.6e6, 2.5e6, 4.0e6), n_bootstrap=200)
     assert blocks.interval == whole.interval and blocks.best_modulus == whole.best_modulus
     np.testing.assert_allclose(blocks.texture_levels["level_db"], whole.texture_levels["level_db"], atol=1e-9)

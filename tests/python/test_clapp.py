@@ -7,8 +7,8 @@ import pytest
 
 import roadtex
 from roadtex import reference as ref
-from roadtex.clapp import clapp
-from roadtex.synthetic import self_affine_profile
+from roadtex.models.clapp import clapp
+from roadtex.profiles.synthetic import self_affine_profile
 
 E = 2.5e6  # Pa
 P = 2e5  # Pa

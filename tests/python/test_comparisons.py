@@ -11,7 +11,7 @@ import pytest
 
 import roadtex
 from roadtex import comparisons as cmp
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 DX = 5e-5
 N = 4096

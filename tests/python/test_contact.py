@@ -16,7 +16,7 @@ import pytest
 import roadtex
 from roadtex import _core
 from roadtex import reference as ref
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 # Road-like defaults: a 0.1 m sample, tread rubber, tyre inflation pressure.
 ROAD_LENGTH = 0.1  # m

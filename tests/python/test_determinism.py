@@ -20,10 +20,11 @@ import pytest
 from polars.testing import assert_frame_equal
 
 import roadtex
-from roadtex.archive import ProcessingOptions, process, write_synthetic_archive
-from roadtex.contact import ImplausibleTextureWarning
-from roadtex.pavements import synthetic_pavement
-from roadtex.synthetic import self_affine_profile
+from roadtex.archive import ProcessingOptions, process
+from roadtex.demo import write_synthetic_archive
+from roadtex.errors import ImplausibleTextureWarning
+from roadtex.profiles.pavements import synthetic_pavement
+from roadtex.profiles.synthetic import self_affine_profile
 
 DX = 5e-5
 N = 2048
@@ -80,7 +81,7 @@ def reference(segments) -> roadtex.ContactBatch:
         return solve_many(segments, threads=1)
 
 
-@pytest.mark.filterwarnings("ignore::roadtex.contact.ImplausibleTextureWarning")
+@pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning")
 @pytest.mark.parametrize("periodic", [True, False])
 def test_contact_many_is_bitwise_identical_across_runs_and_thread_counts(segments, reference, periodic):
     """Three runs each with threads = 1, 2 and 4 (more threads than cores too) give the same
@@ -91,7 +92,7 @@ def test_contact_many_is_bitwise_identical_across_runs_and_thread_counts(segment
         assert_bitwise_equal(first, solve_many(segments, threads=threads, periodic=periodic))
 
 
-@pytest.mark.filterwarnings("ignore::roadtex.contact.ImplausibleTextureWarning")
+@pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning")
 def test_result_does_not_depend_on_the_rest_of_the_batch(segments, reference):
     """A segment's result is the same bits whatever it is batched with, in any order, and equal
     to a one-by-one contact call."""
@@ -156,9 +157,9 @@ def test_bulk_job_tables_are_identical_with_1_and_2_threads(tmp_path: Path):
         summary = process(manifest, out, OPTIONS, quiet=True, threads=threads)
         assert summary.processed == 3 and summary.failed == 0
         outs.append(out)
-    names = ["segments", "bands", "runs", "errors"]
+    names = ["segments", "bands", "runs", "errors", "examples", "edge_effect"]
     per_run = sorted(p.relative_to(outs[0]) for p in (outs[0] / "runs").glob("*/*.parquet"))
-    assert len(per_run) == 9
+    assert len(per_run) == 12  # segments, bands, run, example per run
     for out in outs[1:]:
         for name in names:
             a, b = pl.read_parquet(outs[0] / f"{name}.parquet"), pl.read_parquet(out / f"{name}.parquet")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import roadtex
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 
 def test_envelope_respects_curvature_limit_and_profile():

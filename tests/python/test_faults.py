@@ -21,8 +21,8 @@ import pytest
 from polars.testing import assert_frame_equal
 
 from roadtex.archive import ArchiveWriteError, ProcessingOptions, process
-from roadtex.pavements import synthetic_pavement
-from roadtex.profile import Profile, read_profile, write_profile
+from roadtex.profiles import Profile, read_profile, write_profile
+from roadtex.profiles.pavements import synthetic_pavement
 
 DX = 5e-4
 OPTIONS = ProcessingOptions(youngs_moduli=(2e6, 1e7), dx=DX, segment_length=0.128, mpd_spike_alpha=6.0, tol=1e-8)
@@ -108,7 +108,7 @@ def test_truncated_captif_file_is_recorded_and_the_rest_goes_on(tmp_path, archiv
     bad.write_bytes(cut_captif(captif_bytes, where))
     _, errors = run_with_bad_file(tmp_path, archive, bad)
     assert errors["stage"].to_list() == ["read"]
-    assert errors["error_type"].to_list() == ["ValueError"]
+    assert errors["error_type"].to_list() == ["ProfileFormatError"]
     assert any(word in errors["message"][0] for word in ("truncated", "missing value", "cannot read", "header"))
 
 

@@ -14,10 +14,10 @@ import pytest
 
 import roadtex
 from roadtex import _core
-from roadtex.contact import (PLAUSIBLE_MEDIAN_SLOPE, PLAUSIBLE_PEAK_TO_VALLEY, PLAUSIBLE_RMS,
-                             ImplausibleTextureWarning, RoadtexWarning)
-from roadtex.pavements import synthetic_pavement
-from roadtex.synthetic import self_affine_profile
+from roadtex.errors import ImplausibleTextureWarning, RoadtexWarning
+from roadtex.profiles.pavements import synthetic_pavement
+from roadtex.profiles.plausibility import PLAUSIBLE_MEDIAN_SLOPE, PLAUSIBLE_PEAK_TO_VALLEY, PLAUSIBLE_RMS
+from roadtex.profiles.synthetic import self_affine_profile
 from test_properties import check_contact
 
 E = 2.5e6  # Pa, tread rubber
@@ -270,14 +270,14 @@ def test_heights_in_metres_give_no_warning(roads):
     a batch (the solve is cut short: only the check before it matters here)."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", RoadtexWarning)
-        for name, (z, dx) in roads.items():
+        for _name, (z, dx) in roads.items():
             roadtex.contact(z[:8192], dx, E, P, max_iterations=1, raise_on_nonconvergence=False)
         z, dx = roads["dense_asphalt"]
         roadtex.contact_many(z[:4000].reshape(4, 1000), dx, [E, 2 * E], P, max_iterations=1,
                              raise_on_nonconvergence=False)
         big, dx = roads["self-affine 52 m"]
-        from roadtex.contact import _warn_if_implausible
-        _warn_if_implausible(big, dx, "heights")  # the whole 2^20 profile, without a 2^20 solve
+        from roadtex.profiles.plausibility import warn_if_implausible_texture
+        warn_if_implausible_texture(big, dx, "heights")  # the whole 2^20 profile, without a 2^20 solve
 
 
 def test_heights_in_millimetres_warn_and_still_solve(roads):
@@ -285,7 +285,7 @@ def test_heights_in_millimetres_warn_and_still_solve(roads):
     with ImplausibleTextureWarning (a RoadtexWarning, a UserWarning) whose message says what is
     wrong and suggests millimetres; the problem is still solved as given."""
     assert issubclass(ImplausibleTextureWarning, RoadtexWarning) and issubclass(RoadtexWarning, UserWarning)
-    for name, (z, dx) in roads.items():
+    for _name, (z, dx) in roads.items():
         with pytest.warns(ImplausibleTextureWarning, match=r"implausible for a road.*millimetres"):
             r = roadtex.contact(z[:4096] * 1000, dx, E, P, tol=1e-8, raise_on_nonconvergence=False)
         assert r.pressure.mean() == pytest.approx(P, rel=1e-12)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import roadtex
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 N = 64
 DX = 1e-4

@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roadtex.mpd import mpd
-from roadtex.profile import Profile, read_profile
+from roadtex.profiles import Profile, mpd, read_profile
 
 REPO = Path(__file__).resolve().parents[2]
 CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"

@@ -7,9 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roadtex.mpd import mpd
-from roadtex.pavements import synthetic_pavement
-from roadtex.profile import Profile, read_profile
+from roadtex.profiles import Profile, mpd, read_profile
+from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.spectra import third_octave_levels
 
 CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"

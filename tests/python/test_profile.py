@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roadtex.profile import Profile, read_profile, write_profile
+from roadtex.profiles import Profile, read_profile, write_profile
 
 CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
 CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []

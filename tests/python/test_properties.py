@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import os
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,8 +29,8 @@ from hypothesis import strategies as st
 
 import roadtex
 from roadtex import _core
-from roadtex.clapp import clapp
-from roadtex.profile import Profile, read_profile, write_profile
+from roadtex.models.clapp import clapp
+from roadtex.profiles import Profile, read_profile, write_profile
 from roadtex.spectra import band_levels
 
 _THOROUGH = os.environ.get("ROADTEX_HYPOTHESIS") == "thorough"
@@ -47,7 +46,7 @@ def budget(examples: int) -> settings:
     return settings(_PROFILE, max_examples=examples * (20 if _THOROUGH else 1))
 
 
-pytestmark = pytest.mark.filterwarnings("ignore::roadtex.contact.ImplausibleTextureWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning")
 
 #: Tolerance of the load balance mean(p) = P (it is exact by construction, up to rounding).
 LOAD_BALANCE = 1e-11

@@ -13,8 +13,10 @@ import polars as pl
 import pytest
 from matplotlib import image
 
-from roadtex.archive import ProcessingOptions, process, write_synthetic_archive
+from roadtex.archive import ProcessingOptions, process
+from roadtex.demo import write_synthetic_archive
 from roadtex.report import FIGURES, build_report, octave_table
+from roadtex.report.data import load_results
 
 VOID = {"meta", "img", "br", "hr", "link", "input"}
 
@@ -98,15 +100,15 @@ def test_each_figure_with_data_panels_has_data(report, results: Path) -> None:
     text = report.html.read_text(encoding="utf-8")
     for kind in ("cement_concrete", "dense_asphalt", "porous_asphalt"):
         assert kind in text
-    octaves = octave_table(__import__("roadtex.report", fromlist=["_load"])._load(results))
+    octaves = octave_table(load_results(results))
     assert set(octaves["youngs_modulus"].unique()) == {1e6, 5e6}
     assert octaves.filter(pl.col("pressure_level").is_finite()).height > 0
 
 
 def test_octave_levels_sum_their_third_octaves(results: Path) -> None:
-    from roadtex.report import _load
+    from roadtex.report.data import load_results
 
-    loaded = _load(results)
+    loaded = load_results(results)
     octaves = octave_table(loaded)
     bands = loaded.bands.filter((pl.col("run_id") == octaves["run_id"][0]) & (pl.col("youngs_modulus") == 1e6))
     assert octaves.filter(pl.col("band") == 21).height > 0, "the 8 mm octave (band 21) is reported"

@@ -13,7 +13,7 @@ import polars as pl
 import pytest
 
 from roadtex import contact, reference, spectra
-from roadtex.synthetic import self_affine_profile
+from roadtex.profiles.synthetic import self_affine_profile
 
 ISO_THIRD_OCTAVE_LABELS = ["500", "400", "315", "250", "200", "160", "125", "100", "80", "63", "50", "40", "31.5",
                            "25", "20", "16", "12.5", "10", "8", "6.3", "5", "4", "3.15", "2.5", "2", "1.6", "1.25",

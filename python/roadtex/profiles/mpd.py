@@ -9,7 +9,10 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import fraction, positive
-from roadtex.profile import Profile, _fmt
+from roadtex.errors import InvalidInputError
+from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.profile import Profile
+from roadtex.profiles.trend import remove_lines
 
 _ETD_OFFSET = 0.2e-3  # m, ISO 13473-1: ETD = 0.2 mm + 0.8 MPD
 
@@ -116,18 +119,18 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     max_spike = fraction(max_spike_fraction, "max_spike_fraction")
     min_valid = fraction(min_valid_fraction, "min_valid_fraction")
     if slope_suppression not in ("regression", "highpass"):
-        raise ValueError(f"slope_suppression must be 'regression' or 'highpass', got {slope_suppression!r}")
+        raise InvalidInputError(f"slope_suppression must be 'regression' or 'highpass', got {slope_suppression!r}")
     if not isinstance(profile, Profile):
-        raise ValueError(f"profile must be a roadtex Profile, got {type(profile).__name__}")
+        raise InvalidInputError(f"profile must be a roadtex Profile, got {type(profile).__name__}")
     points = int(round(seg_length / spacing))
     if points < 4 or abs(points * spacing - seg_length) > 1e-9 * seg_length:
-        raise ValueError(f"segment_length {seg_length:g} m must be a whole number (>= 4) of sample_spacing {spacing:g} m")
+        raise InvalidInputError(f"segment_length {seg_length:g} m must be a whole number (>= 4) of sample_spacing {spacing:g} m")
 
     raw = profile.trim_reference_plates() if trim_plates else profile
     resampled = raw.resample(spacing)
     n_segments = resampled.heights.size // points
     if n_segments < 1:
-        raise ValueError(f"the profile ({raw.length * 1e3:.1f} mm after trimming) is shorter than one "
+        raise InvalidInputError(f"the profile ({raw.length * 1e3:.1f} mm after trimming) is shorter than one "
                          f"{seg_length * 1e3:g} mm segment")
     if alpha is not None:
         despiked = resampled.remove_spikes(alpha)
@@ -144,9 +147,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     z = filled.heights[:used].reshape(n_segments, points)
     x = filled.positions[:used].reshape(n_segments, points)
     if slope_suppression == "regression":
-        local = x - x.mean(axis=1, keepdims=True)
-        slope = np.sum(local * (z - z.mean(axis=1, keepdims=True)), axis=1) / np.sum(local * local, axis=1)
-        z = z - z.mean(axis=1, keepdims=True) - slope[:, None] * local
+        z, _ = remove_lines(z, x)
     half = points // 2
     peak_first = z[:, :half].max(axis=1)
     peak_second = z[:, half:].max(axis=1)
@@ -181,7 +182,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         "max_spike_fraction": max_spike, "min_valid_fraction": min_valid,
     }
     summary = (f"mpd({', '.join(f'{k}={v}' for k, v in parameters.items())}): MPD "
-               f"{_fmt(mean_depth * 1e3)} mm from {n_valid} of {n_segments} segments")
+               f"{format_number(mean_depth * 1e3)} mm from {n_valid} of {n_segments} segments")
     used_profile = Profile(filled.heights, filled.positions, filled.dx, filled.metadata,
                            filled.history + (summary,))
     share_valid = n_valid / n_segments

@@ -12,7 +12,7 @@ import numpy as np
 
 from roadtex import _core
 from roadtex._checks import as_float_array, positive_int, to_float, whole_number
-from roadtex.contact import ContactMeasures
+from roadtex.models.results import ContactMeasures
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import numpy as np
 
 from roadtex import _core
 from roadtex._checks import as_float_array, to_float
+from roadtex.profiles.plausibility import warn_if_implausible_texture
 
 
 def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 54.0) -> np.ndarray:
@@ -26,6 +27,11 @@ def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 
 
     Returns:
         The envelope (m), same length as ``heights``; equal to them at both ends of every arc.
+
+    Warns:
+        ImplausibleTextureWarning: heights that cannot be a road texture in metres (in mm?).
     """
     z = as_float_array(heights, "heights", 1)
-    return _core.von_meier(z, to_float(dx, "dx"), to_float(d_star, "d_star"))
+    dx_f = to_float(dx, "dx")
+    warn_if_implausible_texture(z, dx_f, "heights")
+    return _core.von_meier(z, dx_f, to_float(d_star, "d_star"))

@@ -34,9 +34,10 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import positive, positive_int
-from roadtex.contact import contact_many
-from roadtex.spectra import (REFERENCE_TEXTURE, BandKind, _check_kind, _check_signals, band_levels,
-                             band_table)
+from roadtex.errors import InvalidInputError
+from roadtex.models.contact import contact_many
+from roadtex.spectra.bands import BLOCK_VALUES, REFERENCE_TEXTURE, BandKind, band_table, check_band_kind, check_signals, wavenumber_bands
+from roadtex.spectra.levels import band_levels
 
 DEFAULT_MODULI = tuple(float(f"{1e6 * 10 ** (k / 10):.4g}") for k in range(11))
 """The default sweep: 1 to 10 MPa in tenth-decade steps (1, 1.259, 1.585, ... 7.943, 10 MPa)."""
@@ -45,7 +46,6 @@ MIN_SITES = 3
 """A correlation across sites needs at least three sites."""
 
 # Values per working array (contact envelopes, bootstrap levels): about 32 MB of float64.
-_BLOCK_VALUES = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -117,16 +117,16 @@ def _site_profiles(profiles: object) -> tuple[list[Hashable], list[np.ndarray]]:
     elif isinstance(profiles, Sequence) and not isinstance(profiles, (str, bytes)):
         sites, arrays = list(range(len(profiles))), list(profiles)
     else:
-        raise ValueError("profiles must be a mapping site -> profile(s) or a sequence of profiles, one per site")
+        raise InvalidInputError("profiles must be a mapping site -> profile(s) or a sequence of profiles, one per site")
     if len(sites) < MIN_SITES:
-        raise ValueError(f"profiles has {len(sites)} sites: a correlation across sites needs at least {MIN_SITES}")
+        raise InvalidInputError(f"profiles has {len(sites)} sites: a correlation across sites needs at least {MIN_SITES}")
     segments = []
     for site, array in zip(sites, arrays):
         try:
             ndim = 1 if np.ndim(array) == 1 else 2
         except ValueError:  # ragged nested sequences
             ndim = 2
-        checked = _check_signals(array, f"profiles[{site!r}]", ndim)
+        checked = check_signals(array, f"profiles[{site!r}]", ndim)
         segments.append(checked.reshape(-1, checked.shape[-1]))
     return sites, segments
 
@@ -136,43 +136,42 @@ def _noise_table(noise_levels: object, sites: list[Hashable], kind: BandKind, ba
     """Noise levels keyed by (site, band index)."""
     if isinstance(noise_levels, pl.DataFrame):
         if "site" not in noise_levels.columns or "level_db" not in noise_levels.columns:
-            raise ValueError(f"noise_levels needs the columns 'site', 'level_db' and 'band' (or 'frequency' with "
+            raise InvalidInputError(f"noise_levels needs the columns 'site', 'level_db' and 'band' (or 'frequency' with "
                              f"speed_kmh); it has {noise_levels.columns}")
         if "band" in noise_levels.columns:
             band_index = noise_levels["band"].cast(pl.Int64).to_list()
         elif "frequency" in noise_levels.columns:
             if speed_kmh is None:
-                raise ValueError("noise_levels gives 'frequency' (Hz): pass speed_kmh to map it to wavelength bands")
+                raise InvalidInputError("noise_levels gives 'frequency' (Hz): pass speed_kmh to map it to wavelength bands")
             speed = positive(speed_kmh, "speed_kmh", "km/h")
             frequency = noise_levels["frequency"].cast(pl.Float64).to_numpy()
             if not np.all(np.isfinite(frequency) & (frequency > 0.0)):
-                raise ValueError("noise_levels frequency must be positive finite values in Hz")
+                raise InvalidInputError("noise_levels frequency must be positive finite values in Hz")
             # Texture of wavelength V / f excites f: the band whose edges bracket that wavelength.
-            third = np.floor(10.0 * np.log10(frequency / (speed / 3.6)) + 0.5).astype(np.int64)
-            band_index = list(third if kind == "third_octave" else 3 * np.floor_divide(third + 1, 3))
+            band_index = wavenumber_bands(frequency / (speed / 3.6), kind).tolist()
         else:
-            raise ValueError(f"noise_levels needs a 'band' (wavelength band index n) or 'frequency' (Hz) column; "
+            raise InvalidInputError(f"noise_levels needs a 'band' (wavelength band index n) or 'frequency' (Hz) column; "
                              f"it has {noise_levels.columns}")
         site_column = noise_levels["site"].to_list()
         levels = noise_levels["level_db"].cast(pl.Float64).to_numpy()
     else:
         array = np.asarray(noise_levels, dtype=np.float64)
         if bands is None:
-            raise ValueError("noise_levels given as an array needs bands=, the band index n of each column")
+            raise InvalidInputError("noise_levels given as an array needs bands=, the band index n of each column")
         band_list = [int(b) for b in bands]
         if array.shape != (len(sites), len(band_list)):
-            raise ValueError(f"noise_levels must have shape (sites, bands) = ({len(sites)}, {len(band_list)}), "
+            raise InvalidInputError(f"noise_levels must have shape (sites, bands) = ({len(sites)}, {len(band_list)}), "
                              f"got {array.shape}")
         site_column = [site for site in sites for _ in band_list]
         band_index = band_list * len(sites)
         levels = array.reshape(-1)
     if not np.all(np.isfinite(levels)):
-        raise ValueError("noise_levels level_db contains NaN or inf; leave missing (site, band) rows out instead")
+        raise InvalidInputError("noise_levels level_db contains NaN or inf; leave missing (site, band) rows out instead")
     table: dict[tuple[Hashable, int], float] = {}
     for site, band, level in zip(site_column, band_index, levels):
         key = (site, int(band))
         if key in table:
-            raise ValueError(f"noise_levels has more than one level for site {site!r} in band {int(band)}"
+            raise InvalidInputError(f"noise_levels has more than one level for site {site!r} in band {int(band)}"
                              + (" (two frequencies map to one wavelength band; give 'band' instead)"
                                 if isinstance(noise_levels, pl.DataFrame) and "band" not in noise_levels.columns
                                 else ""))
@@ -180,11 +179,11 @@ def _noise_table(noise_levels: object, sites: list[Hashable], kind: BandKind, ba
     known = set(sites)
     unknown = sorted({repr(site) for site, _ in table if site not in known})
     if unknown:
-        raise ValueError(f"noise_levels has sites with no profile: {', '.join(unknown)}")
+        raise InvalidInputError(f"noise_levels has sites with no profile: {', '.join(unknown)}")
     present = {site for site, _ in table}
     silent = [repr(site) for site in sites if site not in present]
     if silent:
-        raise ValueError(f"noise_levels has no level for the sites {', '.join(silent)}")
+        raise InvalidInputError(f"noise_levels has no level for the sites {', '.join(silent)}")
     return table
 
 
@@ -233,19 +232,19 @@ def calibrate_modulus(
     Raises:
         ValueError: bad input, named. ConvergenceError: a contact problem did not converge.
     """
-    kind = _check_kind(kind)
+    kind = check_band_kind(kind)
     dx = positive(dx, "dx", "metres")
     sites, segments = _site_profiles(profiles)
     grid = np.atleast_1d(np.asarray(moduli, dtype=np.float64))
     if grid.ndim != 1 or grid.size < 2:
-        raise ValueError(f"moduli must be a 1-D sequence of at least 2 values of E (Pa), got shape {grid.shape}")
+        raise InvalidInputError(f"moduli must be a 1-D sequence of at least 2 values of E (Pa), got shape {grid.shape}")
     if not np.all(np.isfinite(grid) & (grid > 0.0)):
-        raise ValueError("moduli must be positive finite values of E in pascals")
+        raise InvalidInputError("moduli must be positive finite values of E in pascals")
     grid = np.unique(grid)
     n_bootstrap = positive_int(n_bootstrap, "n_bootstrap")
     confidence = positive(confidence, "confidence", "(a fraction)")
     if not confidence < 1.0:
-        raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
+        raise InvalidInputError(f"confidence must lie in (0, 1), got {confidence!r}")
     noise = _noise_table(noise_levels, sites, kind, bands, speed_kmh)
 
     # Bands reported for every site's segment length and present in the noise data.
@@ -257,16 +256,16 @@ def calibrate_modulus(
         noise_bands &= {int(b) for b in bands}
     usable &= np.isin(reference_table["band"].to_numpy(), sorted(noise_bands))
     if not usable.any():
-        raise ValueError(f"no band is both reported for these segment lengths and present in noise_levels "
+        raise InvalidInputError(f"no band is both reported for these segment lengths and present in noise_levels "
                          f"(noise bands: {sorted(noise_bands)})")
     columns = np.flatnonzero(usable)
     used_bands = reference_table[columns]
 
     # Enveloped band levels per (E, site, band), energy-averaged over each site's segments. Sites are
-    # solved one block of segments at a time so that memory stays bounded by _BLOCK_VALUES.
+    # solved one block of segments at a time so that memory stays bounded by BLOCK_VALUES.
     mean_square = np.zeros((grid.size, len(sites), columns.size))
     for site_index, site_segments in enumerate(segments):
-        rows_per_block = max(1, _BLOCK_VALUES // (grid.size * site_segments.shape[1]))
+        rows_per_block = max(1, BLOCK_VALUES // (grid.size * site_segments.shape[1]))
         for start in range(0, site_segments.shape[0], rows_per_block):
             block = site_segments[start:start + rows_per_block]
             batch = contact_many(block, dx, grid, mean_pressure, poisson=poisson, tol=tol, threads=threads)
@@ -282,13 +281,13 @@ def calibrate_modulus(
     r, slope, intercept, count = _pearson(texture, measured[None, :, :])
     score = _nanmean(r, axis=1)
     if not np.isfinite(score).any():
-        raise ValueError("no correlation is defined: texture or noise levels do not vary across sites")
+        raise InvalidInputError("no correlation is defined: texture or noise levels do not vary across sites")
     best = int(np.nanargmax(score))
 
     # Bootstrap over sites, in blocks of resamples to bound the (E, resample, site, band) arrays.
     rng = np.random.default_rng(seed)
     picks = rng.integers(0, len(sites), size=(n_bootstrap, len(sites)))
-    resamples_per_block = max(1, _BLOCK_VALUES // (grid.size * len(sites) * columns.size))
+    resamples_per_block = max(1, BLOCK_VALUES // (grid.size * len(sites) * columns.size))
     winners_by_block = []
     for start in range(0, n_bootstrap, resamples_per_block):
         chosen = picks[start:start + resamples_per_block]

@@ -10,15 +10,16 @@ per ``youngs_modulus``.
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import polars as pl
 
 from roadtex._checks import as_float_array, to_float
-from roadtex.contact import contact, contact_many
-from roadtex.envelopes import von_meier
-from roadtex.reference import flat_punch_element_pressure
+from roadtex.errors import InvalidInputError
+from roadtex.models.contact import contact, contact_many
+from roadtex.models.envelopes import von_meier
+from roadtex.models.reference import flat_punch_element_pressure
 
 SEED_D_STAR = 54.0
 """The seed's von Meier curvature limit, 0.054 1/mm, in 1/m."""
@@ -80,7 +81,7 @@ def penetration(heights: np.ndarray, envelope: np.ndarray, valley_table: pl.Data
     z = as_float_array(heights, "heights", 1)
     e = as_float_array(envelope, "envelope", 1)
     if e.shape != z.shape:
-        raise ValueError(f"envelope has {e.size} points, heights {z.size}: they must match")
+        raise InvalidInputError(f"envelope has {e.size} points, heights {z.size}: they must match")
     starts, ends = valley_table["start"].to_numpy(), valley_table["end"].to_numpy()
     return np.array([float(np.max(_line(z, a, b) - e[a:b + 1])) for a, b in zip(starts, ends)], dtype=np.float64)
 
@@ -117,13 +118,23 @@ def valley_penetration(heights: np.ndarray | Sequence[float], dx: float, *,
     z = as_float_array(heights, "heights", 1)
     dx_f = to_float(dx, "dx")
     moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64))
+    batch = contact_many(z[None, :], dx_f, moduli, mean_pressure, poisson=poisson, tol=tol)
+    envelopes = {float(modulus): batch.envelope[0, k] for k, modulus in enumerate(moduli)}
+    return penetration_table(z, dx_f, envelopes, mean_pressure=mean_pressure, d_star=d_star, min_depth=min_depth)
+
+
+def penetration_table(heights: np.ndarray | Sequence[float], dx: float, envelopes: Mapping[float, np.ndarray], *,
+                      mean_pressure: float, d_star: float = SEED_D_STAR, min_depth: float = 0.0) -> pl.DataFrame:
+    """:func:`valley_penetration` for envelopes already solved (m, keyed by E in Pa, at ``mean_pressure``
+    Pa): the same table, without solving (the report draws it from the bulk job's own solves)."""
+    z = as_float_array(heights, "heights", 1)
+    dx_f = to_float(dx, "dx")
     table = valleys(z, dx_f, d_star=d_star, min_depth=min_depth)
     vm = penetration(z, von_meier(z, dx_f, d_star), table)
-    batch = contact_many(z[None, :], dx_f, moduli, mean_pressure, poisson=poisson, tol=tol)
     depth = table["depth"].to_numpy()
     frames = []
-    for k, modulus in enumerate(moduli):
-        inrets = penetration(z, batch.envelope[0, k], table)
+    for modulus, envelope in envelopes.items():
+        inrets = penetration(z, envelope, table)
         frames.append(table.with_columns(
             pl.lit(float(d_star)).alias("d_star"),
             pl.Series("von_meier_penetration", vm),

@@ -37,7 +37,8 @@ from __future__ import annotations
 import numpy as np
 
 from roadtex._checks import finite_number, positive
-from roadtex.profile import Profile
+from roadtex.errors import InvalidInputError
+from roadtex.profiles.profile import Profile
 
 _KINDS = ("cement_concrete", "dense_asphalt", "porous_asphalt", "surface_dressing")
 
@@ -89,30 +90,30 @@ def synthetic_pavement(kind: str, length: float, dx: float, *, seed: int = 0, **
         kind, seed and parameters.
     """
     if kind not in _KINDS:
-        raise ValueError(f"unknown pavement kind {kind!r}; known kinds: {', '.join(_KINDS)}")
+        raise InvalidInputError(f"unknown pavement kind {kind!r}; known kinds: {', '.join(_KINDS)}")
     length_f = positive(length, "length")
     dx_f = positive(dx, "dx")
     n = int(round(length_f / dx_f))
     if n < 10:
-        raise ValueError(f"length {length_f:g} m is fewer than 10 samples of dx {dx_f:g} m")
+        raise InvalidInputError(f"length {length_f:g} m is fewer than 10 samples of dx {dx_f:g} m")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
+        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
     parameters = dict(_DEFAULTS[kind])
     unknown = set(options) - set(parameters)
     if unknown:
-        raise ValueError(f"unknown option(s) {sorted(unknown)} for {kind}; known: {sorted(parameters)}")
+        raise InvalidInputError(f"unknown option(s) {sorted(unknown)} for {kind}; known: {sorted(parameters)}")
     for key, value in options.items():
         if isinstance(parameters[key], bool):
             if not isinstance(value, (bool, np.bool_)):
-                raise ValueError(f"{key} must be True or False, got {value!r}")
+                raise InvalidInputError(f"{key} must be True or False, got {value!r}")
             parameters[key] = bool(value)
         else:
             number = finite_number(value, key)
             if number < 0:
-                raise ValueError(f"{key} must be >= 0, got {value!r}")
+                raise InvalidInputError(f"{key} must be >= 0, got {value!r}")
             parameters[key] = number
     if parameters["min_stone"] <= 0 or parameters["max_stone"] < parameters["min_stone"]:
-        raise ValueError("need 0 < min_stone <= max_stone")
+        raise InvalidInputError("need 0 < min_stone <= max_stone")
 
     rng = np.random.default_rng([int(seed), _KINDS.index(kind)])
     x = dx_f * np.arange(n)
@@ -175,7 +176,7 @@ def _tining(x: np.ndarray, rng: np.random.Generator, p: dict) -> np.ndarray:
     """Depth of transverse tining grooves: rounded-bottom channels at jittered spacing."""
     spacing, width, depth = float(p["tining_spacing"]), float(p["tining_width"]), float(p["tining_depth"])
     if spacing <= width:
-        raise ValueError(f"tining_spacing ({spacing:g} m) must exceed tining_width ({width:g} m)")
+        raise InvalidInputError(f"tining_spacing ({spacing:g} m) must exceed tining_width ({width:g} m)")
     count = int((x[-1] - x[0]) / spacing * 1.5) + 4
     jitter = float(p["tining_spacing_jitter"])
     pitches = spacing * np.clip(1.0 + jitter * rng.uniform(-1.0, 1.0, count), 0.2, None)

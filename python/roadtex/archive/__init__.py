@@ -1,0 +1,62 @@
+"""Bulk reprocessing of road-survey archives: a manifest in, Parquet tables out.
+
+The job reads, conditions and segments each run (one profile file), solves the periodic contact
+problem for every segment and every requested Young's modulus in the Rust core, computes band
+levels and mean profile depth, and writes tables (schemas below). It is built to be left alone:
+
+- **Per-run atomic outputs.** Each run's tables go to ``OUT/runs/<run_id>/``. Every file is written
+  to a temporary name and renamed into place; the run's ``status.json`` is renamed in last, so a
+  run counts as done only when all its files are complete. A job killed at any moment (SIGKILL
+  included) loses at most the runs in flight.
+- **Resume and change detection.** ``status.json`` records a fingerprint of the processing options
+  and the SHA-256 of the input file. A re-run skips every run whose fingerprint still matches and
+  recomputes the others (changed options, changed or new files). Results do not depend on the
+  thread count, the engine or the order in which runs finish, so a resumed job ends with tables
+  identical to an uninterrupted one.
+- **Bad runs.** A run that cannot be read or solved is recorded (``errors.parquet``) and the job
+  goes on. Failures to *write* output (unwritable folder, full disk) stop the job with a clear
+  :class:`roadtex.errors.ArchiveWriteError`; what was already written stays intact.
+- **Bounded memory.** Runs are streamed one at a time (or one per Dask worker) and long runs are
+  solved in chunks of segments.
+
+Combined tables in ``OUT`` (rewritten atomically at the end of every job, in manifest order):
+
+``segments.parquet`` — one row per (run, segment, modulus), :data:`SEGMENT_SCHEMA`.
+``bands.parquet`` — one row per (run, segment, modulus, band), :data:`BAND_SCHEMA`.
+``errors.parquet`` — one row per failed run, :data:`ERROR_SCHEMA`.
+``runs.parquet`` — one row per processed run (points, length, MPD of the whole run), :data:`RUN_SCHEMA`.
+``examples.parquet`` — each run's middle segment, solved at every modulus, :data:`EXAMPLE_SCHEMA` (for the report).
+``edge_effect.parquet`` — the seed's figure 3.1 at the job's load, :data:`EDGE_EFFECT_SCHEMA`.
+``parameters.json`` — the options, their fingerprint, and the software versions.
+Profiles (``keep_profiles=True``): ``OUT/runs/<run_id>/profiles.parquet`` per run, schema
+:data:`PROFILE_SCHEMA`; :func:`read_profiles` reads them back by run and position.
+
+Modules: :mod:`~roadtex.archive.schemas` (tables), :mod:`~roadtex.archive.options`,
+:mod:`~roadtex.archive.manifest`, :mod:`~roadtex.archive.compute` (one run),
+:mod:`~roadtex.archive.store` (atomic files, status), :mod:`~roadtex.archive.engines` (local, Dask,
+progress) and :mod:`~roadtex.archive.job` (the job, combined tables).
+"""
+
+from roadtex.archive.compute import compute_run
+from roadtex.archive.job import ProcessSummary, combine, process, process_run, read_profiles, software_versions
+from roadtex.archive.manifest import build_manifest, read_manifest
+from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.schemas import (
+                                     BAND_SCHEMA,
+                                     EDGE_EFFECT_SCHEMA,
+                                     ERROR_SCHEMA,
+                                     EXAMPLE_SCHEMA,
+                                     MANIFEST_COLUMNS,
+                                     METADATA_COLUMNS,
+                                     NOISE_PREFIX,
+                                     PROFILE_SCHEMA,
+                                     RUN_SCHEMA,
+                                     SEGMENT_SCHEMA,
+)
+from roadtex.archive.store import file_sha256, remove_outputs
+from roadtex.errors import ArchiveWriteError, ManifestError
+
+__all__ = ["compute_run", "ProcessSummary", "combine", "process", "process_run", "read_profiles", "software_versions",
+           "build_manifest", "read_manifest", "ProcessingOptions", "BAND_SCHEMA", "EDGE_EFFECT_SCHEMA", "ERROR_SCHEMA",
+           "EXAMPLE_SCHEMA", "MANIFEST_COLUMNS", "METADATA_COLUMNS", "NOISE_PREFIX", "PROFILE_SCHEMA", "RUN_SCHEMA",
+           "SEGMENT_SCHEMA", "file_sha256", "remove_outputs", "ArchiveWriteError", "ManifestError"]

@@ -1,0 +1,207 @@
+"""One run of the bulk job: read, condition, segment, solve, spectra; its tables, nothing written."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+import polars as pl
+
+from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.schemas import BAND_SCHEMA, EXAMPLE_SCHEMA, METADATA_COLUMNS, PROFILE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
+from roadtex.errors import ArchiveWriteError, InvalidInputError
+from roadtex.models.contact import contact_many
+from roadtex.models.results import ContactBatch
+from roadtex.profiles.mpd import mpd as mean_profile_depth
+from roadtex.profiles.readers import read_profile
+from roadtex.spectra.analysis import time_frequency
+from roadtex.spectra.bands import REFERENCE_PRESSURE
+from roadtex.spectra.levels import band_levels
+
+#: Segments solved per call of the Rust core; bounds memory on long runs.
+CHUNK_SEGMENTS = 2048
+
+
+class RunFailure(Exception):
+    """One run failed at ``stage`` (read, condition, mpd, segment, spectra, solve) because of ``cause``."""
+
+    def __init__(self, stage: str, cause: BaseException):
+        super().__init__(f"{stage}: {cause}")
+        self.stage, self.cause = stage, cause
+
+
+def run_stage(stage: str, action: Callable[[], Any]) -> Any:
+    """``action()``, any failure of it recorded as this run's failure at ``stage``.
+
+    A panic inside any extension module (polars, pyo3-based libraries: a PanicException, which is a
+    BaseException) is that run's failure too, so one bad file never stops the job. What must stop
+    the job still does: a failure to write output, running out of memory, Ctrl-C, interpreter exit.
+    """
+    try:
+        return action()
+    except (ArchiveWriteError, KeyboardInterrupt, SystemExit, GeneratorExit, MemoryError):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - see the docstring: panics are BaseExceptions
+        raise RunFailure(stage, exc) from exc
+
+
+def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
+    """Reads, conditions, segments, solves and analyses one run; returns its tables (nothing written).
+
+    Raises:
+        RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
+            too short for one 100 mm MPD baseline or one segment fails as a whole.
+    """
+    raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format")))
+    conditioned = run_stage("condition", lambda: raw.conditioned(dx=options.dx, spike_alpha=options.spike_alpha))
+    depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
+    segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
+    n_segments, n_points = segments.heights.shape
+    moduli = np.asarray(options.youngs_moduli)
+    n_moduli = moduli.size
+    dx = segments.dx
+    speed = run.get("speed_kmh")
+    speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
+
+    baselines = depth.segments
+    mpd_per_segment = segment_mpd(baselines, segments.starts, segments.length, max(dx, 5e-4))
+
+    segment_rows: dict[str, list[Any]] = {name: [] for name in SEGMENT_SCHEMA}
+    band_frames: list[pl.DataFrame] = []
+    profile_envelopes = np.empty((n_moduli, n_segments, n_points)) if options.keep_profiles else None
+    profile_pressures = np.empty((n_moduli, n_segments, n_points)) if options.keep_profiles else None
+    # The contact model sees each segment as one period, so the original segments are analysed
+    # the same way as its (periodic) output: exact DFT band powers, no window. Differences
+    # enveloped - original then come from the envelopment alone, not from a change of method.
+    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True))
+    reported = texture.bands["reported"].to_numpy()
+    if not reported.any():
+        raise RunFailure("spectra", InvalidInputError(
+            f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
+            f"segment length ({segments.length:.3g} m); use longer segments"))
+    bands = texture.bands.filter(pl.col("reported"))
+    band_count = bands.height
+    frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
+                 if speed is not None else np.full(band_count, np.nan))
+
+    # The report draws its profile figures from this segment's own solves (it never re-solves).
+    example_segment = n_segments // 2
+    example = None
+    for first in range(0, n_segments, CHUNK_SEGMENTS):
+        chunk = slice(first, min(first + CHUNK_SEGMENTS, n_segments))
+        heights = segments.heights[chunk]
+        batch = run_stage("solve", lambda: contact_many(
+            heights, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+            max_iterations=options.max_iterations, threads=threads, warm_start=True,
+            raise_on_nonconvergence=False))
+        count = heights.shape[0]
+        envelopes = batch.envelope.reshape(count * n_moduli, n_points)
+        pressures = batch.pressure.reshape(count * n_moduli, n_points)
+        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True))
+        pressure = run_stage("spectra", lambda: band_levels(
+            pressures, dx, kind=options.band_kind, periodic=True, reference=REFERENCE_PRESSURE))
+        if options.keep_profiles:
+            profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
+            profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)
+
+        if first <= example_segment < first + count:
+            example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first)
+        measures = batch.measures()
+        index = np.arange(first, first + count)
+        seg_index = np.repeat(index, n_moduli)
+        mod_index = np.tile(np.arange(n_moduli), count)
+        columns = {
+            "run_id": [run["run_id"]] * seg_index.size,
+            "segment": seg_index,
+            "youngs_modulus": moduli[mod_index],
+            "start": segments.starts[seg_index],
+            "end": segments.starts[seg_index] + segments.length,
+            **{name: [run.get(name)] * seg_index.size for name in METADATA_COLUMNS},
+            "mpd": mpd_per_segment[seg_index],
+            "rms_height": heights.std(axis=1)[seg_index - first],
+            **{name: values.ravel() for name, values in measures.items()},
+            "residual": batch.residual.ravel(),
+            "iterations": batch.iterations.ravel(),
+            "converged": batch.converged.ravel(),
+        }
+        for name, values in columns.items():
+            segment_rows[name].extend(np.asarray(values).tolist() if not isinstance(values, list) else values)
+
+        rows = seg_index.size
+        band_frames.append(pl.DataFrame({
+            "segment": np.repeat(seg_index, band_count),
+            "youngs_modulus": np.repeat(moduli[mod_index], band_count),
+            "band": np.tile(bands["band"].to_numpy(), rows),
+            "label": np.tile(bands["label"].to_numpy(), rows),
+            "centre_wavelength": np.tile(bands["centre_wavelength"].to_numpy(), rows),
+            "frequency": np.tile(frequency, rows),
+            "texture_level": texture.levels[seg_index][:, reported].ravel(),
+            "enveloped_level": enveloped.levels[:, reported].ravel(),
+            "pressure_level": pressure.levels[:, reported].ravel(),
+        }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id")).select(
+            [pl.col(name).cast(dtype) for name, dtype in BAND_SCHEMA.items()]))
+
+    tables = {
+        "example": example,
+        "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA),
+        "bands": pl.concat(band_frames).with_columns(pl.col("frequency").fill_nan(None)),
+        "run": pl.DataFrame({
+            "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
+            "points": [conditioned.heights.size],
+            "length": [conditioned.length], "dx": [dx], "segments": [n_segments], "mpd": [depth.mpd],
+            "dropout_fraction": [raw.dropout_fraction],
+        }, schema=RUN_SCHEMA),
+    }
+    if options.keep_profiles:
+        tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
+    return tables
+
+
+def segment_mpd(baselines: pl.DataFrame, starts: np.ndarray, length: float, dx: float) -> np.ndarray:
+    """Mean of the valid ISO baselines lying inside each segment, to within one sample (NaN where none)."""
+    valid = baselines.filter(pl.col("valid")).sort("start")
+    b_start = valid["start"].to_numpy()
+    b_end = valid["end"].to_numpy()
+    cumulative = np.concatenate([[0.0], np.cumsum(valid["msd"].to_numpy())])
+    # Segments start at a sample, baselines at a sample interval's edge (half a sample earlier),
+    # and the two grids may differ (MPD resamples to 0.5 mm): allow one sample either way.
+    slack = dx
+    # Baselines have equal lengths, so sorting by start sorts the ends too.
+    first = np.searchsorted(b_start, starts - slack, side="left")
+    last = np.searchsorted(b_end, starts + length + slack, side="right")
+    count = np.maximum(last - first, 0)
+    out = np.full(starts.size, np.nan)
+    has = count > 0
+    out[has] = (cumulative[last[has]] - cumulative[first[has]]) / count[has]
+    return out
+
+
+def stitched_profiles(run_id: str, segments: Any, moduli: np.ndarray, envelopes: np.ndarray,
+                       pressures: np.ndarray) -> pl.DataFrame:
+    frames = []
+    heights_positions, heights = segments.stitch(segments.heights, add_trend=True)
+    for k, modulus in enumerate(moduli):
+        _, envelope = segments.stitch(envelopes[k], add_trend=True)
+        _, pressure = segments.stitch(pressures[k])
+        frames.append(pl.DataFrame({
+            "run_id": [run_id] * heights.size, "youngs_modulus": np.full(heights.size, modulus),
+            "position": heights_positions, "height": heights, "envelope": envelope, "pressure": pressure,
+        }, schema=PROFILE_SCHEMA))
+    return pl.concat(frames)
+
+
+def example_table(run_id: str, segments: Any, segment: int, moduli: np.ndarray, batch: ContactBatch,
+                  row: int) -> pl.DataFrame:
+    """One segment's heights (as solved), envelopes and pressures for every modulus (EXAMPLE_SCHEMA)."""
+    n_points = segments.heights.shape[1]
+    positions = segments.starts[segment] + segments.dx * np.arange(n_points)
+    return pl.DataFrame({
+        "run_id": [run_id] * (moduli.size * n_points),
+        "segment": np.full(moduli.size * n_points, segment),
+        "youngs_modulus": np.repeat(moduli, n_points),
+        "dx": np.full(moduli.size * n_points, segments.dx),
+        "position": np.tile(positions, moduli.size),
+        "height": np.tile(segments.heights[segment], moduli.size),
+        "envelope": batch.envelope[row].ravel(),
+        "pressure": batch.pressure[row].ravel(),
+    }, schema=EXAMPLE_SCHEMA)

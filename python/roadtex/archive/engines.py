@@ -1,0 +1,104 @@
+"""Where runs are processed: on this machine (a few runs in flight) or on Dask workers; the progress bar."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import uuid
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from roadtex.archive.options import ProcessingOptions
+from roadtex.errors import MissingDependencyError
+
+log = logging.getLogger("roadtex.archive")
+
+#: What an engine runs for each run: :func:`roadtex.archive.job.process_run` (passed in, so that
+#: the engines stay below the job that uses them).
+RunWorker = Callable[..., dict[str, Any]]
+
+
+#: Runs in flight on the local engine. Two, so that one run's reading, conditioning, spectra and
+#: writing (Python, one core) overlap the other's contact solve (Rust, every core, GIL released):
+#: about 20 % of a run's time is Python. Memory holds at most this many runs.
+LOCAL_RUNS_IN_FLIGHT = 2
+
+
+def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
+                   threads: int | None, force: bool) -> Iterable[tuple[dict[str, Any], int]]:
+    """Runs in manifest order, a bounded number at a time; yields (status, size) as each finishes."""
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    pending = list(zip(runs, sizes))[::-1]
+    with ThreadPoolExecutor(max_workers=LOCAL_RUNS_IN_FLIGHT, thread_name_prefix="roadtex-run") as pool:
+        in_flight: dict[Any, int] = {}
+        try:
+            while pending or in_flight:
+                while pending and len(in_flight) < LOCAL_RUNS_IN_FLIGHT:
+                    run, size = pending.pop()
+                    in_flight[pool.submit(work, run, options, out, threads=threads, force=force)] = size
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    size = in_flight.pop(future)
+                    yield future.result(), size
+        finally:
+            for future in in_flight:
+                future.cancel()
+
+
+def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
+                  scheduler: str | None, workers: int, threads: int | None, force: bool) -> Iterable[tuple[dict[str, Any], int]]:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise MissingDependencyError("engine='dask' needs dask.distributed: pip install 'roadtex[dask]'") from None
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        threads = 1 if threads is None else threads
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    try:
+        by_key = {}
+        futures = []
+        for run, size in zip(runs, sizes):
+            future = client.submit(work, run, options, str(out), threads=threads, force=force,
+                                   key=f"roadtex-run-{run['run_id']}-{uuid.uuid4().hex[:8]}", pure=False)
+            by_key[future.key] = size
+            futures.append(future)
+        for future in as_completed(futures):
+            yield future.result(), by_key[future.key]
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+class Progress:
+    """A progress bar over bytes of input (for the ETA), showing runs and kilometres done."""
+
+    def __init__(self, runs: int, total_bytes: int, quiet: bool):
+        self.runs, self.done, self.km, self.quiet = runs, 0, 0.0, quiet
+        self.bar = None
+        if not quiet:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=max(total_bytes, 1), unit="B", unit_scale=True, desc=f"runs 0/{runs}",
+                            file=sys.stderr, dynamic_ncols=True)
+
+    def update(self, status: dict[str, Any], size: int) -> None:
+        self.done += 1
+        self.km += float(status.get("kilometres", 0.0))
+        state = "skipped" if status.get("skipped") else status["state"]
+        if self.bar is not None:
+            self.bar.set_description(f"runs {self.done}/{self.runs}")
+            self.bar.set_postfix_str(f"{self.km:.3f} km", refresh=False)
+            self.bar.update(size)
+        else:
+            detail = f": {status.get('stage')}: {status.get('message')}" if state == "error" else ""
+            log.info("run %d/%d %s %s (%.3f km so far)%s", self.done, self.runs, status["run_id"], state, self.km, detail)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()

@@ -1,0 +1,256 @@
+"""The job: every run of a manifest processed, resumable, and the combined tables written."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Sequence
+
+import numpy as np
+import polars as pl
+
+from roadtex._core import __version__
+from roadtex.archive.compute import RunFailure, compute_run
+from roadtex.archive.engines import Progress, process_dask, process_local
+from roadtex.archive.manifest import read_manifest
+from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.schemas import BAND_SCHEMA, EDGE_EFFECT_SCHEMA, ERROR_SCHEMA, EXAMPLE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
+from roadtex.archive.store import (
+    STATUS_FILE,
+    check_writable,
+    file_sha256,
+    file_size,
+    read_status,
+    remove_stale_temporaries,
+    run_fingerprint,
+    write_atomically,
+    write_json,
+)
+from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
+from roadtex.models.comparisons import edge_effect
+
+Engine = Literal["local", "dask"]
+
+
+@dataclass(frozen=True)
+class ProcessSummary:
+    """What a :func:`process` call did."""
+
+    out_dir: Path
+    runs: int
+    processed: int
+    skipped: int
+    failed: int
+    kilometres: float
+    seconds: float
+    tables: dict[str, Path] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        return (f"{self.runs} runs: {self.processed} processed, {self.skipped} already done, "
+                f"{self.failed} failed; {self.kilometres:.3f} km of profile in {self.seconds:.1f} s -> {self.out_dir}")
+
+
+def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | os.PathLike[str], *,
+                threads: int | None = None, force: bool = False) -> dict[str, Any]:
+    """Processes one manifest row and writes its outputs atomically to ``out_dir/runs/<run_id>/``.
+
+    Skips the work when the run's status already matches the options and the input file.
+
+    Returns:
+        The run's status: ``state`` ("ok", "error" or "skipped"), fingerprints, ``kilometres`` and,
+        on error, ``stage``, ``error_type`` and ``message``.
+
+    Raises:
+        ArchiveWriteError: the outputs could not be written.
+    """
+    run_dir = Path(out_dir) / "runs" / run["run_id"]
+    options_fingerprint = options.fingerprint()
+    try:
+        input_sha256 = file_sha256(run["path"])
+    except OSError as exc:
+        input_sha256 = f"unreadable: {exc}"
+    fingerprint = run_fingerprint(options_fingerprint, input_sha256, run)
+    previous = read_status(run_dir)
+    if not force and previous is not None and previous.get("fingerprint") == fingerprint:
+        return {**previous, "skipped": True}
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / STATUS_FILE).unlink(missing_ok=True)  # from here until the new status lands, the run is not done
+    except OSError as exc:
+        raise ArchiveWriteError(exc.errno, f"cannot write to {run_dir}: {exc.strerror or exc}") from exc
+    started = time.perf_counter()
+    status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
+                              "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
+    try:
+        tables = compute_run(run, options, threads=threads)
+    except RunFailure as failure:
+        status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
+                      message=str(failure.cause), kilometres=0.0)
+    else:
+        for name, table in tables.items():
+            if table is None:
+                continue
+            write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
+        status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
+                      seconds=time.perf_counter() - started)
+    for stale in ("example", "segments", "bands", "run", "profiles"):
+        if status["state"] != "ok" or (stale == "profiles" and not options.keep_profiles):
+            (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
+    write_json(run_dir / STATUS_FILE, status)
+    return {**status, "skipped": False}
+
+
+# --------------------------------------------------------------------------------------------
+# The job
+# --------------------------------------------------------------------------------------------
+
+def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.PathLike[str],
+            options: ProcessingOptions | None = None, *, engine: Engine = "local", scheduler: str | None = None,
+            workers: int = 2, threads: int | None = None, quiet: bool = False, force: bool = False,
+            extra_columns: Sequence[str] = ()) -> ProcessSummary:
+    """Processes every run of a manifest and writes the combined tables to ``out_dir``.
+
+    Args:
+        manifest: manifest file (CSV/Parquet) or DataFrame, see :func:`read_manifest`.
+        out_dir: output folder (created).
+        options: what to compute; default :class:`ProcessingOptions()`.
+        engine: "local" (two runs at a time on this machine, segments in parallel on ``threads``
+            Rust threads) or "dask" (runs distributed over Dask workers).
+        scheduler: Dask scheduler address; None starts a local cluster of ``workers`` processes.
+        workers: worker processes of the local Dask cluster.
+        threads: Rust threads per solve batch (None: all cores; with the local Dask cluster the
+            default is one per worker).
+        quiet: no progress bar; one log line per run instead (logger ``roadtex.archive``).
+        force: recompute runs even when their status is current.
+
+    Returns:
+        A :class:`ProcessSummary`.
+
+    Raises:
+        ManifestError: a bad manifest (before any work starts).
+        ArchiveWriteError: the output folder cannot be written.
+    """
+    options = options or ProcessingOptions()
+    table = read_manifest(manifest, extra_columns=extra_columns)
+    out = Path(out_dir)
+    check_writable(out)
+    remove_stale_temporaries(out)
+    runs = table.to_dicts()
+    sizes = [file_size(run["path"]) for run in runs]
+    started = time.perf_counter()
+    progress = Progress(len(runs), sum(sizes), quiet)
+    statuses: dict[str, dict[str, Any]] = {}
+    try:
+        if engine == "local":
+            for status, size in process_local(process_run, runs, sizes, options, out, threads, force):
+                statuses[status["run_id"]] = status
+                progress.update(status, size)
+        elif engine == "dask":
+            for status, size in process_dask(process_run, runs, sizes, options, out, scheduler, workers, threads, force):
+                statuses[status["run_id"]] = status
+                progress.update(status, size)
+        else:
+            raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
+    finally:
+        progress.close()
+    tables = combine(table, out, options)
+    counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
+              for state in ("ok", "error")}
+    return ProcessSummary(
+        out_dir=out, runs=len(runs), processed=counts["ok"], failed=counts["error"],
+        skipped=sum(1 for s in statuses.values() if s["skipped"]),
+        kilometres=sum(float(s.get("kilometres", 0.0)) for s in statuses.values() if not s["skipped"]),
+        seconds=time.perf_counter() - started, tables=tables)
+
+
+def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions) -> dict[str, Path]:
+    """Concatenates the per-run tables of the runs in ``manifest`` (in its order) into the combined tables.
+
+    Only runs whose status is current for ``options`` count; stale folders are ignored. The
+    tables are streamed from the per-run files to the combined file (polars' streaming sink), so
+    memory does not grow with the archive.
+    """
+    out = Path(out_dir)
+    options_fingerprint = options.fingerprint()
+    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": []}
+    errors: list[dict[str, Any]] = []
+    for run in manifest.iter_rows(named=True):
+        run_dir = out / "runs" / run["run_id"]
+        status = read_status(run_dir)
+        if status is None or status.get("options_fingerprint") != options_fingerprint:
+            continue
+        if status["state"] == "error":
+            errors.append({name: status.get(name) for name in ERROR_SCHEMA})
+            continue
+        parts["segments"].append(run_dir / "segments.parquet")
+        parts["bands"].append(run_dir / "bands.parquet")
+        parts["runs"].append(run_dir / "run.parquet")
+        if (run_dir / "example.parquet").exists():
+            parts["examples"].append(run_dir / "example.parquet")
+    schemas = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
+    written = {}
+    for name, files in parts.items():
+        path = out / f"{name}.parquet"
+        if files:
+            query = pl.scan_parquet(files, schema=schemas[name])
+            write_atomically(path, lambda p, q=query: q.sink_parquet(p, statistics=True))
+        else:
+            empty = pl.DataFrame(schema=schemas[name])
+            write_atomically(path, lambda p, t=empty: t.write_parquet(p, statistics=True))
+        written[name] = path
+    edge = edge_effect_table(options)
+    write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p))
+    written["edge_effect"] = out / "edge_effect.parquet"
+    error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
+    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p))
+    written["errors"] = out / "errors.parquet"
+    write_json(out / "parameters.json", {
+        "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
+        "versions": software_versions(), "runs": manifest.height,
+    })
+    written["parameters"] = out / "parameters.json"
+    if options.keep_profiles:
+        written["profiles"] = out / "runs"
+    return written
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of roadtex and what it computes with (recorded in parameters.json)."""
+    return {"roadtex": __version__, "python": platform.python_version(), "numpy": np.__version__,
+            "polars": pl.__version__, "platform": platform.platform()}
+
+
+def read_profiles(out_dir: str | os.PathLike[str], *, run_id: str | None = None, start: float | None = None,
+                  end: float | None = None, youngs_modulus: float | None = None) -> pl.DataFrame:
+    """Reads stitched enveloped profiles and pressures back, by run and position range (m).
+
+    Needs a job run with ``keep_profiles=True``; columns as :data:`PROFILE_SCHEMA`.
+    """
+    root = Path(out_dir) / "runs"
+    pattern = str(root / (run_id if run_id is not None else "*") / "profiles.parquet")
+    if not any(root.glob(f"{run_id if run_id is not None else '*'}/profiles.parquet")):
+        raise ResultsNotFoundError(f"no profiles under {root}{' for run ' + run_id if run_id else ''}; "
+                                "process with keep_profiles=True (--keep-profiles)")
+    query = pl.scan_parquet(pattern)
+    if start is not None:
+        query = query.filter(pl.col("position") >= start)
+    if end is not None:
+        query = query.filter(pl.col("position") < end)
+    if youngs_modulus is not None:
+        query = query.filter(pl.col("youngs_modulus") == float(youngs_modulus))
+    return query.collect()
+
+
+def edge_effect_table(options: ProcessingOptions, points: int = 1024, length: float = 0.1) -> pl.DataFrame:
+    """The seed's figure 3.1 for the job's load and middle modulus: a flat profile of ``length`` (m),
+    finite against periodic model (EDGE_EFFECT_SCHEMA), solved here so the report only reads."""
+    moduli = sorted(options.youngs_moduli)
+    modulus = moduli[len(moduli) // 2]
+    table = edge_effect(points=points, length=length, youngs_modulus=modulus, mean_pressure=options.mean_pressure,
+                        poisson=options.poisson, tol=1e-10)
+    return table.with_columns(pl.lit(modulus).alias("youngs_modulus"),
+                              pl.lit(options.mean_pressure).alias("mean_pressure")).cast(EDGE_EFFECT_SCHEMA)  # type: ignore[arg-type]

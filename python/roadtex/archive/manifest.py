@@ -1,0 +1,141 @@
+"""The manifest: which runs (profile files) a job processes, with their metadata."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Sequence
+
+import polars as pl
+
+from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX
+from roadtex.errors import ManifestError
+from roadtex.profiles.readers import read_profile
+
+#: File suffixes :func:`build_manifest` lists as profile files.
+PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet"}
+
+
+def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: str | os.PathLike[str] | None = None,
+                  extra_columns: Sequence[str] = ()) -> pl.DataFrame:
+    """Reads and checks a manifest (CSV or Parquet, or a DataFrame), before any work starts.
+
+    Columns: ``path`` (required; relative paths are taken from the manifest's folder or
+    ``base_dir``), optional ``run_id`` (default: the file name without suffix; must be unique),
+    ``format`` (as for :func:`roadtex.read_profile`; default: guessed), the metadata columns
+    :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h) and measured noise levels ``noise_<band>``
+    (dB). Any other column must be named in ``extra_columns`` (it is then carried along unused).
+
+    Returns:
+        The manifest with absolute paths, every known column present (null when absent) and
+        ``run_id`` filled.
+
+    Raises:
+        ManifestError: unreadable file, missing ``path`` column, unknown columns, empty
+            manifest, duplicate run ids, or a listed file that does not exist.
+    """
+    if isinstance(source, pl.DataFrame):
+        table = source
+        base = Path(base_dir) if base_dir is not None else Path.cwd()
+    else:
+        manifest_path = Path(source)
+        base = Path(base_dir) if base_dir is not None else manifest_path.resolve().parent
+        if not manifest_path.is_file():
+            raise ManifestError(f"manifest {manifest_path} does not exist or is not a file")
+        try:
+            if manifest_path.suffix.lower() == ".parquet":
+                table = pl.read_parquet(manifest_path)
+            else:
+                separator = "\t" if manifest_path.suffix.lower() in (".tsv", ".tab") else ","
+                table = pl.read_csv(manifest_path, separator=separator, infer_schema=False)
+        except Exception as exc:  # polars raises several exception types for malformed files
+            raise ManifestError(f"cannot read manifest {manifest_path}: {exc}") from None
+    if "path" not in table.columns:
+        raise ManifestError(f"manifest has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
+    unknown = [c for c in table.columns
+               if c not in MANIFEST_COLUMNS and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
+    if unknown:
+        raise ManifestError(
+            f"manifest has unknown column(s) {', '.join(map(repr, unknown))}; known: "
+            f"{', '.join(MANIFEST_COLUMNS)}, and {NOISE_PREFIX}<band> for noise levels (dB); "
+            "pass extra_columns to carry others along")
+    if table.height == 0:
+        raise ManifestError("manifest lists no runs")
+    casts = []
+    for name, dtype in MANIFEST_COLUMNS.items():
+        if name not in table.columns:
+            casts.append(pl.lit(None, dtype=dtype).alias(name))
+        else:
+            casts.append(pl.col(name).cast(dtype, strict=False).alias(name))
+    for name in table.columns:
+        if name.startswith(NOISE_PREFIX):
+            casts.append(pl.col(name).cast(pl.Float64, strict=False).alias(name))
+    for name in ("speed_kmh", *[c for c in table.columns if c.startswith(NOISE_PREFIX)]):
+        if name in table.columns:
+            bad = table.filter(pl.col(name).is_not_null()
+                               & pl.col(name).cast(pl.Float64, strict=False).is_null())
+            if bad.height:
+                raise ManifestError(f"manifest column {name!r} must be numeric; row value {bad[name][0]!r}")
+    if "speed_kmh" in table.columns:
+        speeds = table["speed_kmh"].cast(pl.Float64, strict=False).drop_nulls()
+        if speeds.len() and not (speeds > 0).all():
+            raise ManifestError(f"manifest column 'speed_kmh' must be positive (km/h); found {speeds.filter(speeds <= 0)[0]!r}")
+    table = table.with_columns(casts)
+    if table["path"].null_count():
+        raise ManifestError("manifest column 'path' has empty entries")
+    paths = [str((base / p).resolve()) if not Path(p).is_absolute() else str(Path(p)) for p in table["path"]]
+    missing = [p for p in paths if not Path(p).exists()]
+    if missing:
+        raise ManifestError(f"{len(missing)} file(s) listed in the manifest do not exist, first: {missing[0]}")
+    run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
+    seen: set[str] = set()
+    for rid in run_ids:
+        if rid in seen:
+            raise ManifestError(f"run id {rid!r} appears twice in the manifest; give each run a unique run_id")
+        if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
+            raise ManifestError(f"run id {rid!r} cannot name an output folder")
+        seen.add(rid)
+    return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
+
+
+def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, read_metadata: bool = True) -> pl.DataFrame:
+    """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
+
+    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy or .parquet are listed, except
+    hidden files and files named ``manifest*`` (a manifest kept beside its data). With
+    ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
+    device, direction) fills the manifest columns; a file that cannot be read is still listed,
+    so the job records why it fails.
+
+    Returns:
+        A manifest DataFrame with absolute paths; save it with ``write_csv`` and edit it freely.
+    """
+    root = Path(folder)
+    if not root.is_dir():
+        raise ManifestError(f"{root} is not a folder")
+    files = sorted(p for p in (root.rglob("*") if recursive else root.glob("*"))
+                   if p.is_file() and p.suffix.lower() in PROFILE_SUFFIXES
+                   and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
+    if not files:
+        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet) in {root}")
+    rows = []
+    for path in files:
+        row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
+        if read_metadata:
+            try:
+                metadata = read_profile(path).metadata
+            except Exception:  # listed anyway: the job records why it fails
+                metadata = {}
+            for name in METADATA_COLUMNS:
+                if name in metadata and metadata[name] is not None:
+                    row[name] = metadata[name]
+        rows.append(row)
+    table = pl.DataFrame(rows, infer_schema_length=None)
+    return read_manifest(table, base_dir=root)
+
+
+def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
+    taken = {r["run_id"] for r in rows}
+    if path.stem not in taken:
+        return path.stem
+    return "_".join(path.relative_to(root).with_suffix("").parts)

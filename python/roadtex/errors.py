@@ -1,0 +1,83 @@
+"""Every exception and warning roadtex raises, in one hierarchy.
+
+Catch :class:`RoadtexError` for anything roadtex refuses or fails at, and filter
+:class:`RoadtexWarning` for anything it warns about. Each class also derives from the built-in
+exception a caller would expect (bad input is a ``ValueError``, a solver that could not do what
+was asked a ``RuntimeError``, an output that could not be written an ``OSError``), so code that
+catches those keeps working.
+
+This module imports nothing from roadtex: every other module, and the Rust binding, may use it.
+"""
+
+from __future__ import annotations
+
+
+class RoadtexError(Exception):
+    """Base of every error roadtex raises on purpose."""
+
+
+class InvalidInputError(RoadtexError, ValueError):
+    """An argument is unusable: the message names the argument, the problem and, for a
+    magnitude, the unit expected."""
+
+
+class ProfileFormatError(InvalidInputError):
+    """A file cannot be read as a road profile or surface; the message starts with the file's name."""
+
+
+class ManifestError(InvalidInputError):
+    """The manifest is unreadable or has unknown, missing or inconsistent columns."""
+
+
+class ConvergenceError(RoadtexError, RuntimeError):
+    """The contact solver stopped before reaching ``tol`` (``raise_on_nonconvergence=True``)."""
+
+
+class SolverError(RoadtexError, RuntimeError):
+    """The dense direct contact solver could not settle on a contact set (never expected on valid input)."""
+
+
+class ClappError(RoadtexError, RuntimeError):
+    """Clapp's sub-profile model could not solve a window (never expected on valid input)."""
+
+
+class InternalError(RoadtexError, RuntimeError):
+    """A bug in roadtex: the Rust core panicked. The message is the panic's; please report it."""
+
+
+class ArchiveWriteError(RoadtexError, OSError):
+    """Output could not be written (unwritable folder, full disk): the job stops, nothing is corrupted."""
+
+
+class ResultsNotFoundError(RoadtexError, FileNotFoundError):
+    """A results folder lacks what was asked of it (not processed, or processed without the option
+    that writes it)."""
+
+
+class MissingDependencyError(RoadtexError, ImportError):
+    """An optional dependency is needed for what was asked (the message says which extra to install)."""
+
+
+class RoadtexWarning(UserWarning):
+    """Base of roadtex's warnings: something was computed, but probably not what was meant."""
+
+
+class ImplausibleTextureWarning(RoadtexWarning):
+    """Heights that cannot be a road texture in metres (usually heights in mm or um given as m)."""
+
+
+class ImplausibleParameterWarning(RoadtexWarning):
+    """A modulus, pressure or sampling interval far outside what tyres and road profiles have
+    (usually a unit mistake: MPa given as Pa, mm as m)."""
+
+
+class ConditioningWarning(RoadtexWarning):
+    """Conditioning removed more of a profile than a sound measurement would need (trimmed length,
+    spikes, drop-outs beyond the documented thresholds)."""
+
+
+__all__ = [
+    "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
+    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError",
+    "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
+]

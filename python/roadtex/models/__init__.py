@@ -1,0 +1,10 @@
+"""Contact models of rubber on a road profile: the INRETS periodic (and finite) model, the von Meier
+envelope, Clapp's sub-profile model, closed-form references, and the seed's comparisons."""
+
+from roadtex.models.clapp import ClappResult, clapp
+from roadtex.models.contact import contact, contact_many
+from roadtex.models.envelopes import von_meier
+from roadtex.models.results import ContactBatch, ContactMeasures, ContactResult, contact_measures
+
+__all__ = ["ClappResult", "ContactBatch", "ContactMeasures", "ContactResult", "clapp", "contact", "contact_many",
+           "contact_measures", "von_meier"]

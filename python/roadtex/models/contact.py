@@ -1,0 +1,136 @@
+"""Tyre/road contact on a line profile: the public solver API.
+
+Units are SI: heights and dx in metres, moduli and pressures in pascals.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, Sequence
+
+import numpy as np
+
+from roadtex import _core
+from roadtex._checks import as_float_array, positive_int, to_float
+from roadtex.errors import ConvergenceError, InvalidInputError
+from roadtex.models.results import ContactBatch, ContactResult
+from roadtex.profiles.plausibility import warn_if_implausible_texture
+
+Kernel = Literal["element", "spectral"]
+Method = Literal["cg", "direct"]
+
+
+def contact(
+    heights: np.ndarray | Sequence[float],
+    dx: float,
+    youngs_modulus: float,
+    mean_pressure: float,
+    *,
+    poisson: float = 0.5,
+    periodic: bool = True,
+    kernel: Kernel = "element",
+    method: Method = "cg",
+    tol: float = 1e-10,
+    max_iterations: int = 2000,
+    raise_on_nonconvergence: bool = True,
+) -> ContactResult:
+    """Presses an elastic half-space (the tyre rubber) onto a rigid road profile.
+
+    Args:
+        heights: profile heights z (m), positive up, on N >= 8 equal elements.
+        dx: element width (m); the sample length is L = N dx.
+        youngs_modulus: E of the rubber (Pa), e.g. 2.5e6.
+        mean_pressure: P, the mean contact pressure over L (Pa), e.g. 2e5.
+        poisson: nu in (-1, 0.5]; E* = E / (1 - nu^2).
+        periodic: True (default) repeats the sample infinitely (the INRETS periodic model);
+            False treats it as a finite sample (edge over-pressures).
+        kernel: "element" (exact influence coefficients of piecewise-constant pressure) or
+            "spectral" (the continuous kernel 2 / (E* |k|) at the discrete wavenumbers).
+        method: "cg" (preconditioned constrained conjugate gradients, any N) or "direct"
+            (dense active-set solve, N <= 8192, the independent check).
+        tol: stop when the worst open gap on the contact set and the worst penetration off it
+            are both at most ``tol`` times the profile's peak-to-valley height.
+        max_iterations: cap on solver iterations.
+        raise_on_nonconvergence: raise :class:`ConvergenceError` when ``tol`` is not reached
+            (default); with False the result is returned with ``converged=False``.
+
+    Returns:
+        A :class:`ContactResult`.
+
+    Raises:
+        ValueError: bad input, with the argument and the problem named.
+        ConvergenceError: see ``raise_on_nonconvergence``.
+
+    Warns:
+        ImplausibleTextureWarning: the heights cannot be a road texture profile in metres
+            (peak-to-valley above 1 m, rms above 0.25 m, or median slope above 20, linear trend
+            removed): probably millimetres. The problem is still solved as given.
+    """
+    z = as_float_array(heights, "heights", 1)
+    dx_f, e_f, p_f, nu_f = (to_float(dx, "dx"), to_float(youngs_modulus, "youngs_modulus"),
+                            to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
+    warn_if_implausible_texture(z, dx_f, "heights")
+    pressure, envelope, iterations, residual, converged = _core.solve(
+        z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, to_float(tol, "tol"),
+        positive_int(max_iterations, "max_iterations"),
+    )
+    if raise_on_nonconvergence and not converged:
+        raise ConvergenceError(
+            f"contact solver stopped after {iterations} iterations at residual {residual:.3g} > tol {tol:g}; "
+            "raise max_iterations or tol, or pass raise_on_nonconvergence=False"
+        )
+    return ContactResult(z, dx_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
+
+
+def contact_many(
+    segments: np.ndarray | Sequence[Sequence[float]],
+    dx: float,
+    youngs_modulus: float | Sequence[float] | np.ndarray,
+    mean_pressure: float,
+    *,
+    poisson: float = 0.5,
+    periodic: bool = True,
+    kernel: Kernel = "element",
+    method: Method = "cg",
+    tol: float = 1e-10,
+    max_iterations: int = 2000,
+    threads: int | None = None,
+    warm_start: bool = False,
+    raise_on_nonconvergence: bool = True,
+) -> ContactBatch:
+    """Solves :func:`contact` for every segment (row) and every modulus, in parallel.
+
+    The kernel and FFT plans are built once; the (segment, modulus) problems run on a Rust thread
+    pool with the GIL released. Each result is bitwise identical to a one-by-one :func:`contact`
+    call, whatever the thread count.
+
+    Args:
+        segments: 2-D array of heights (m), one segment of N points per row.
+        youngs_modulus: one E or a sequence of E values (Pa).
+        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS).
+        warm_start: solve each segment's moduli in the order given, each CG solve starting from
+            the previous modulus's solution (its contact set is close): fewer iterations. Results
+            then meet ``tol`` as usual but are no longer bitwise those of one-by-one calls (they
+            stay bitwise the same whatever the thread count). Ignored by ``method="direct"``.
+        Other arguments: as for :func:`contact`.
+
+    Returns:
+        A :class:`ContactBatch` indexed ``[segment, modulus]``.
+    """
+    heights = as_float_array(segments, "segments", 2)
+    moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
+    if moduli.ndim != 1:
+        raise InvalidInputError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
+    threads = None if threads is None else positive_int(threads, "threads")
+    dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
+    warn_if_implausible_texture(heights, dx_f, "segments")
+    pressure, envelope, iterations, residual, converged = _core.solve_many(
+        heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
+        to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
+    )
+    if raise_on_nonconvergence and not converged.all():
+        bad = np.argwhere(~converged)
+        raise ConvergenceError(
+            f"{len(bad)} of {converged.size} problems did not reach tol {tol:g} "
+            f"(first: segment {bad[0][0]}, modulus {moduli[bad[0][1]]:g} Pa, residual {residual[tuple(bad[0])]:.3g})"
+        )
+    return ContactBatch(heights, dx_f, moduli, nu_f, p_f, pressure, envelope, iterations, residual, converged)

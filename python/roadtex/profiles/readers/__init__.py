@@ -1,0 +1,120 @@
+"""Reading road profile files: one module per format, :func:`read_profile` picks the format."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from roadtex._checks import positive
+from roadtex.errors import InvalidInputError, ProfileFormatError
+from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.profile import Profile
+from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
+from roadtex.profiles.readers.delimited import read_delimited
+from roadtex.profiles.readers.npy import read_npy
+from roadtex.profiles.readers.parquet import read_parquet
+from roadtex.profiles.readers.text import decode_text, nominal_dx, sorted_samples
+
+#: Formats :func:`read_profile` reads.
+FORMATS = ("captif", "csv", "npy", "parquet")
+
+
+def guess_format(path: Path, head: bytes) -> str:
+    if head.startswith(b"\x93NUMPY"):
+        return "npy"
+    if head.startswith(b"PAR1"):
+        return "parquet"
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        return "npy"
+    if suffix in (".parquet", ".pq"):
+        return "parquet"
+    if CAPTIF_MARKER in head or CAPTIF_MARKER in utf16_ascii(head):
+        return "captif"
+    return "csv"
+
+
+def utf16_ascii(head: bytes) -> bytes:
+    return head.replace(b"\x00", b"")
+
+
+def read_profile(path: str | Path, format: str | None = None, **options: object) -> Profile:
+    """Reads a road profile file into a :class:`Profile` in metres, drop-outs as NaN.
+
+    Formats (``format=None`` guesses from the content, then the suffix):
+
+    - ``"captif"``: the CAPTIF stationary laser profilometer text file: tab-separated metadata
+      lines, ``*****DATA*****``, a header ``Data Point No: / Distance (mm) / Depth (mm)``, rows of
+      point, distance, height. The third column is a height, positive up, whatever its name.
+      Metadata (site, wheel_path, direction, date as ISO yyyy-mm-dd, file_number, ...) is kept.
+    - ``"csv"``: delimited text (``.csv``, ``.tsv``, ``.txt``, ...): the delimiter (tab, ``;``,
+      ``,`` or blanks) is sniffed, a header is detected. Columns are found by name (distance,
+      position, x, chainage / height, z, elevation, profile) or given; units come from the header
+      (``"height (mm)"``, ``"height [um]"``, ``"z_mm"``) or are given. Leading ``# key: value``
+      lines become metadata. Without a header, the first column is distance and the second height.
+      Empty fields are drop-outs.
+    - ``"npy"``: 1-D heights (needs ``dx``) or (N, 2) distance/height pairs, in metres unless units
+      are given; a ``<file>.npy.json`` sidecar written by :func:`write_profile` adds metadata.
+    - ``"parquet"``: a table with distance and height columns, found and scaled as for CSV.
+
+    Options: ``distance_column``, ``height_column`` (name or index), ``distance_unit``,
+    ``height_unit`` (``"m"``, ``"mm"``, ``"um"``, ...), ``dx`` (m, for heights-only data; also the
+    nominal dx to record), ``start`` (m, first position for heights-only data), ``delimiter``,
+    ``encoding`` (text files; UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
+    ``sort`` (default True: out-of-order rows are sorted by position; False refuses them).
+
+    Rows are sorted by position; exact duplicates that agree are merged.
+
+    Raises:
+        ValueError: the file is missing, empty, binary or in an unknown encoding, truncated, has no
+            usable distance or height column or an unknown unit, holds only drop-outs, or has
+            duplicate positions with conflicting heights (the message names the problem).
+    """
+    file = Path(path)
+    name = file.name
+    known = {"distance_column", "height_column", "distance_unit", "height_unit", "dx", "start",
+             "delimiter", "encoding", "sort"}
+    unknown = set(options) - known
+    if unknown:
+        raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(known)}")
+    if format is not None and format not in FORMATS:
+        raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
+    if not file.is_file():
+        raise ProfileFormatError(f"no such file: {file}")
+    if file.stat().st_size == 0:
+        raise ProfileFormatError(f"{name} is empty")
+    with file.open("rb") as handle:
+        head = handle.read(8192)
+    fmt = format or guess_format(file, head)
+    if fmt == "npy":
+        positions, heights, metadata, history, dx = read_npy(file, name, options)
+        encoding = None
+    elif fmt == "parquet":
+        positions, heights, metadata, history, dx = read_parquet(file, name, options)
+        encoding = None
+    else:
+        data, encoding = decode_text(file.read_bytes(), options.get("encoding"), name)  # type: ignore[arg-type]
+        reader = read_captif if fmt == "captif" else read_delimited
+        positions, heights, metadata, history, dx = reader(data, name, options)
+    if positions.size < 2:
+        raise ProfileFormatError(f"{name}: {positions.size} data row(s): a profile needs at least 2")
+    if np.isinf(heights).any() or np.isinf(positions).any():
+        row = int(np.flatnonzero(np.isinf(heights) | np.isinf(positions))[0])
+        raise ProfileFormatError(f"{name}: data row {row + 1} holds an infinite or overflowing value")
+    if np.isnan(heights).all():
+        raise ProfileFormatError(f"{name}: all {heights.size} heights are drop-outs (NaN)")
+    if options.get("sort", True) is False and np.any(np.diff(positions) <= 0):
+        raise ProfileFormatError(f"{name}: positions are not strictly increasing (pass sort=True to sort them)")
+    positions, heights, note = sorted_samples(positions, heights, name)
+    if positions.size < 2:
+        raise ProfileFormatError(f"{name}: fewer than 2 distinct positions")
+    dx_f = positive(dx, "dx") if dx is not None else nominal_dx(positions)
+    metadata.setdefault("source", name)
+    encoding_note = f", {encoding}" if encoding not in (None, "utf-8") else ""
+    history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
+                   f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
+    return Profile(heights, positions, dx_f, metadata, tuple(history))
+
+
+__all__ = ["FORMATS", "read_profile"]

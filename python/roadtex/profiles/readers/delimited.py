@@ -1,0 +1,135 @@
+"""Delimited text (CSV, TSV, semicolon or blank separated) with a distance and a height column."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+
+from roadtex.errors import ProfileFormatError
+from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.text import (
+    DISTANCE_NAMES,
+    HEIGHT_NAMES,
+    ReadResult,
+    column_unit,
+    first_lines,
+    parse_table,
+    parse_value,
+    pick_column,
+)
+
+#: The comment line tag under which :func:`roadtex.write_profile` stores metadata and history.
+ROADTEX_TAG = "roadtex-profile"
+
+
+def sniff_separator(lines: list[bytes]) -> str:
+    sample = [line for line in lines if line.strip()][:5]
+    for separator in ("\t", ";", ","):
+        counts = {line.count(separator.encode()) for line in sample}
+        if len(counts) == 1 and counts.pop() > 0:
+            return separator
+    for separator in ("\t", ";", ","):
+        if all(separator.encode() in line for line in sample[1:]) and sample[1:]:
+            return separator
+    return " "
+
+
+def is_number(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return text.strip().lower() in ("nan", "", "na", "n/a", "null", "-")
+
+
+def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
+    lines, ends = first_lines(data, 200)
+    metadata: dict[str, object] = {}
+    history: list[str] = []
+    skip = 0
+    for line in lines:
+        text = line.decode("utf-8", "replace").strip()
+        if not text:
+            skip += 1
+            continue
+        if not text.startswith("#"):
+            break
+        skip += 1
+        body = text.lstrip("#").strip()
+        if body.startswith(ROADTEX_TAG + ":"):
+            try:
+                stored = json.loads(body[len(ROADTEX_TAG) + 1:])
+            except json.JSONDecodeError as exc:
+                raise ProfileFormatError(f"{name}: damaged {ROADTEX_TAG} header line: {exc}") from None
+            metadata.update(stored.get("metadata", {}))
+            history.extend(stored.get("history", []))
+            if stored.get("dx") is not None and options.get("dx") is None:
+                options = {**options, "dx": stored["dx"]}
+        elif re.match(r"^[^:=]+[:=]", body):
+            key, value = re.split(r"[:=]", body, maxsplit=1)
+            metadata[re.sub(r"\W+", "_", key.strip().lower()).strip("_")] = parse_value(value)
+    rest = lines[skip:]
+    if not rest:
+        raise ProfileFormatError(f"{name}: no data (only comments or blank lines)")
+    separator = options.get("delimiter") or sniff_separator(rest[:5])
+    offset = ends[skip - 1] if skip else 0
+    body = data[offset:]
+    header_text = rest[0].decode("utf-8", "replace")
+    if separator == " ":
+        body = re.sub(rb"[ \t]+", b"\t", re.sub(rb"(?m)^[ \t]+|[ \t]+$", b"", body))
+        separator = "\t"
+        rest = [re.sub(rb"[ \t]+", b"\t", line.strip()) for line in rest]
+        # blank-separated headers may hold names with single blanks ("height (mm)"): prefer runs
+        # of two or more blanks as separators when that matches the data's column count
+        columns = len(rest[1].split(b"\t")) if len(rest) > 1 else len(rest[0].split(b"\t"))
+        wide = [f for f in re.split(r"\s{2,}|\t", header_text.strip()) if f]
+        if len(wide) == columns:
+            rest[0] = "\t".join(wide).encode()
+    first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
+    has_header = not all(is_number(f) for f in first)
+    if has_header and len(rest) > 1:
+        data_columns = len(rest[1].decode("utf-8", "replace").split(separator))
+        if data_columns != len(first):
+            raise ProfileFormatError(f"{name}: the header names {len(first)} columns ({first}) but the first data row "
+                             f"has {data_columns} fields")
+    if has_header:
+        names = first
+        body = body[body.find(b"\n") + 1:] if b"\n" in body else b""
+        if not body or body.isspace():
+            raise ProfileFormatError(f"{name}: a header line ({separator.join(names)!r}) but no data rows")
+    else:
+        names = [f"column_{i + 1}" for i in range(len(first))]
+    n_columns = len(names)
+    first_data_line = skip + (2 if has_header else 1)
+    if not data.endswith(b"\n"):
+        last = body.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
+        if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
+            raise ProfileFormatError(f"{name}: the last line {last[:60].decode('utf-8', 'replace')!r} has fewer than "
+                             f"{n_columns} fields and no line end: the file looks truncated")
+    table, absent = parse_table(body, separator, n_columns, name, first_data_line - 1)
+    if table.shape[0] == 0:
+        raise ProfileFormatError(f"{name}: no data rows")
+    if has_header:
+        h_index = pick_column(names, options.get("height_column"), HEIGHT_NAMES, "height", True)
+        d_index = pick_column(names, options.get("distance_column"), DISTANCE_NAMES, "distance",
+                               options.get("dx") is None)
+    else:
+        h_given, d_given = options.get("height_column"), options.get("distance_column")
+        if n_columns == 1:
+            h_index, d_index = pick_column(names, 0 if h_given is None else h_given, (), "height", True), None
+        else:
+            h_index = pick_column(names, 1 if h_given is None else h_given, (), "height", True)
+            d_index = pick_column(names, 0 if d_given is None else d_given, (), "distance", False)
+    assert h_index is not None
+    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height")
+    if d_index is not None:
+        if absent[:, d_index].any():
+            row = int(np.flatnonzero(absent[:, d_index])[0])
+            raise ProfileFormatError(f"{name}: data row {row + 1} (line {first_data_line + row}) has no distance")
+        positions = table[:, d_index] * column_unit(names, d_index, options.get("distance_unit"), "distance")
+    else:
+        positions = grid_positions(heights.size, options, name)
+    metadata.setdefault("format", "csv")
+    return positions, heights, metadata, history, options.get("dx")

@@ -1,0 +1,192 @@
+"""What the text readers share: decoding, finding columns and their units, parsing number tables,
+and ordering samples. Every error raised here is a ProfileFormatError naming the file."""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+
+import numpy as np
+import polars as pl
+
+from roadtex.errors import ProfileFormatError
+from roadtex.profiles.units import UNITS, unit_factor
+
+#: Column names (lower case, unit stripped) taken as the distance or height column when none is given.
+DISTANCE_NAMES = ("distance", "dist", "position", "pos", "x", "chainage", "station", "s",
+                  "longitudinal_position", "location")
+HEIGHT_NAMES = ("height", "z", "elevation", "profile", "texture", "h", "y", "relative_height")
+#: A reader's answer: positions (m), heights (m), metadata, history lines, dx given or stored (m or None).
+ReadResult = tuple[np.ndarray, np.ndarray, dict, list[str], object]
+
+
+def decode_text(raw: bytes, encoding: str | None, name: str) -> tuple[bytes, str]:
+    """Returns the content as UTF-8 bytes with '\\n' line ends, and the encoding used."""
+    if not raw or raw.isspace():
+        raise ProfileFormatError(f"{name} is empty")
+    if encoding is not None:
+        try:
+            text = raw.decode(encoding)
+        except (LookupError, UnicodeDecodeError) as exc:
+            raise ProfileFormatError(f"{name} cannot be decoded as {encoding}: {exc}") from None
+        data, used = text.encode("utf-8"), encoding
+    elif raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            data, used = raw.decode("utf-16").encode("utf-8"), "utf-16"
+        except UnicodeDecodeError as exc:
+            raise ProfileFormatError(f"{name} has a UTF-16 byte-order mark but is not valid UTF-16: {exc}") from None
+    elif raw.startswith(b"\xef\xbb\xbf"):
+        data, used = raw[3:], "utf-8"
+    else:
+        head = raw[:4096]
+        if b"\x00" in head:
+            if head[1::2].count(0) > 0.4 * len(head[1::2]):
+                hint = "UTF-16 (little-endian) without a byte-order mark: pass encoding='utf-16-le'"
+            elif head[0::2].count(0) > 0.4 * len(head[0::2]):
+                hint = "UTF-16 (big-endian) without a byte-order mark: pass encoding='utf-16-be'"
+            else:
+                hint = "binary data, not a text profile"
+            raise ProfileFormatError(f"{name} looks like {hint}")
+        try:
+            if not raw.isascii():
+                raw.decode("utf-8")
+            data, used = raw, "utf-8"
+        except UnicodeDecodeError:
+            # Old instrument software writes Windows-1252/Latin-1 (a degree sign or umlaut in a header).
+            data, used = raw.decode("latin-1").encode("utf-8"), "latin-1"
+    # The CSV parser takes CRLF as it is; only old Mac files with bare CR need rewriting. Judging
+    # by the head spares two passes over a large file (files do not mix line ends in practice).
+    first_cr = data.find(b"\r")
+    if first_cr >= 0:
+        head = data[first_cr:first_cr + 65536]
+        if head.count(b"\r") != head.count(b"\r\n"):
+            data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return data, used
+
+
+def split_column_name(column: str) -> tuple[str, str | None]:
+    """'Distance (mm)' -> ('distance', 'mm'); 'height_mm' -> ('height', 'mm'); 'z' -> ('z', None)."""
+    text = column.strip()
+    bracket = re.search(r"[\(\[]\s*([^\)\]]*?)\s*[\)\]]\s*$", text)
+    if bracket:
+        base = text[:bracket.start()].strip()
+        unit: str | None = bracket.group(1)
+    else:
+        base, unit = text, None
+        suffix = re.match(r"^(.*?)[_\s]+([A-Za-zµμ]+)$", text)
+        if suffix and suffix.group(2).lower() in UNITS:
+            base, unit = suffix.group(1), suffix.group(2)
+    base = re.sub(r"[\s\-]+", "_", base.strip().lower()).rstrip(":")
+    return base, unit
+
+
+def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str, ...], what: str,
+                 required: bool) -> int | None:
+    if isinstance(wanted, (int, np.integer)) and not isinstance(wanted, bool):
+        if not -len(names) <= int(wanted) < len(names):
+            raise ProfileFormatError(f"{what} column index {wanted} is out of range for {len(names)} columns")
+        return int(wanted) % len(names)
+    if isinstance(wanted, str):
+        for i, name in enumerate(names):
+            if name == wanted or name.strip().lower() == wanted.strip().lower() or split_column_name(name)[0] == wanted.lower():
+                return i
+        raise ProfileFormatError(f"unknown {what} column {wanted!r}; the columns are {names}")
+    if wanted is not None:
+        raise ProfileFormatError(f"{what}_column must be a column name or index, got {wanted!r}")
+    bases = [split_column_name(n)[0] for n in names]
+    for synonym in synonyms:
+        if synonym in bases:
+            return bases.index(synonym)
+    if required:
+        hint = ", or give dx= (m) for evenly spaced heights" if what == "distance" else ""
+        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column={hint}")
+    return None
+
+
+def column_unit(names: list[str], index: int, given: str | None, what: str) -> float:
+    if given is not None:
+        return unit_factor(given, what)
+    unit = split_column_name(names[index])[1]
+    if unit is None:
+        raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit= ('m', 'mm', 'um', ...)")
+    return unit_factor(unit, f"the {what} column {names[index]!r}")
+
+
+def nominal_dx(positions: np.ndarray) -> float:
+    return float((positions[-1] - positions[0]) / (positions.size - 1)) if positions.size > 1 else 0.0
+
+
+def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """Sorts by position; merges exact duplicates that agree; refuses duplicates that conflict."""
+    note = ""
+    if np.isnan(positions).any():
+        raise ProfileFormatError(f"{name}: distance is NaN at data row {int(np.flatnonzero(np.isnan(positions))[0]) + 1}")
+    steps = np.diff(positions)
+    if np.any(steps <= 0):
+        order = np.argsort(positions, kind="stable")
+        moved = int(np.count_nonzero(order != np.arange(order.size)))
+        positions, heights = positions[order], heights[order]
+        if moved:
+            note = f"; sorted {moved} samples by position"
+        same = np.flatnonzero(np.diff(positions) == 0)
+        if same.size:
+            a, b = heights[same], heights[same + 1]
+            conflict = ~((a == b) | np.isnan(a) | np.isnan(b))
+            if conflict.any():
+                i = int(same[np.flatnonzero(conflict)[0]])
+                raise ProfileFormatError(f"{name}: {same.size} duplicate positions, e.g. {positions[i]:.9g} m with heights "
+                                 f"{heights[i]:.9g} and {heights[i + 1]:.9g} m that disagree: cannot sort them out")
+            keep = np.ones(positions.size, dtype=bool)
+            keep[same + 1] = False
+            # a duplicate pair keeps the valid height of the two
+            heights = heights.copy()
+            heights[same] = np.where(np.isnan(a), b, a)
+            positions, heights = positions[keep], heights[keep]
+            note += f"; merged {same.size} duplicate positions"
+    return positions, heights, note
+
+
+def parse_table(data: bytes, separator: str, n_columns: int, name: str,
+                 first_line: int) -> tuple[np.ndarray, np.ndarray]:
+    """Numeric table (rows, n_columns) from delimited UTF-8 text, and the mask of missing fields
+    (empty or absent; they are NaN in the table, like the written ``NaN`` drop-outs)."""
+    schema = {f"c{i}": pl.Float64 for i in range(n_columns)}
+    try:
+        frame = pl.read_csv(io.BytesIO(data), has_header=False, separator=separator, schema=schema,
+                            null_values=["", "NA", "N/A", "null", "-"], comment_prefix=None, quote_char='"')
+    except (Exception, pl.exceptions.PanicException) as exc:
+        # polars raises ComputeError/NoDataError with a long hint (keep its first line), and on some
+        # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
+        # BaseException, so it is named here to be reported as what it is, a bad file.
+        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ProfileFormatError(f"{name}: cannot read the numbers after line {first_line}: {message}") from None
+    missing = np.column_stack([frame.get_column(c).is_null().to_numpy() for c in frame.columns]) \
+        if frame.height else np.zeros((0, n_columns), dtype=bool)
+    table = frame.to_numpy().astype(np.float64, copy=False).reshape(frame.height, n_columns)
+    return table, missing
+
+
+def first_lines(data: bytes, count: int) -> tuple[list[bytes], list[int]]:
+    """The first ``count`` lines and the byte offset where each ends (after its newline)."""
+    lines, ends, start = [], [], 0
+    while len(lines) < count and start < len(data):
+        stop = data.find(b"\n", start)
+        stop = len(data) if stop < 0 else stop + 1
+        lines.append(data[start:stop].rstrip(b"\r\n"))
+        ends.append(stop)
+        start = stop
+    return lines, ends
+
+
+def parse_value(text: str) -> object:
+    text = text.strip()
+    for cast in (int, float):
+        try:
+            value = cast(text)
+            if isinstance(value, float) and not math.isfinite(value):
+                return text
+            return value
+        except ValueError:
+            pass
+    return text

@@ -1,0 +1,114 @@
+"""What the report reads: the job's tables, nothing else (never the raw files, never a new solve)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from roadtex.errors import InvalidInputError, ResultsNotFoundError
+
+MM = 1e3
+COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#7f7f7f")
+
+
+def pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
+                         "axes.titlesize": 10, "legend.fontsize": 8, "svg.fonttype": "none"})
+    return plt
+
+
+def modulus_label(e: float) -> str:
+    return f"E = {e / 1e6:g} MPa"
+
+
+def energetic_mean(levels: pl.Expr) -> pl.Expr:
+    """Mean of levels in power (dB): 10 lg(mean 10^(L/10))."""
+    return 10.0 * (10.0 ** (levels / 10.0)).mean().log10()
+
+
+@dataclass
+class Results:
+    root: Path
+    segments: pl.DataFrame
+    bands: pl.DataFrame
+    runs: pl.DataFrame
+    errors: pl.DataFrame
+    examples: pl.DataFrame
+    edge_effect: pl.DataFrame
+    parameters: dict[str, Any]
+
+    @property
+    def options(self) -> dict[str, Any]:
+        return self.parameters.get("options", {})
+
+    @property
+    def moduli(self) -> list[float]:
+        return sorted(self.segments["youngs_modulus"].unique().to_list())
+
+    def group_column(self) -> str:
+        """Pavement type when the manifest gave it, else the run id."""
+        if self.segments["pavement"].null_count() < self.segments.height:
+            return "pavement"
+        return "run_id"
+
+
+def load_results(results_dir: Path) -> Results:
+    """The tables of a results folder written by :func:`roadtex.process`."""
+    needed = ("segments.parquet", "bands.parquet", "runs.parquet", "examples.parquet", "edge_effect.parquet",
+              "parameters.json")
+    missing = [name for name in needed if not (results_dir / name).exists()]
+    if missing:
+        raise ResultsNotFoundError(f"{results_dir} is not a roadtex results folder: missing {', '.join(missing)} "
+                                "(run `roadtex process MANIFEST --out DIR` first, with this version of roadtex)")
+    segments = pl.read_parquet(results_dir / "segments.parquet")
+    if segments.height == 0:
+        raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed (see errors.parquet)")
+    errors_path = results_dir / "errors.parquet"
+    return Results(results_dir, segments, pl.read_parquet(results_dir / "bands.parquet"),
+                   pl.read_parquet(results_dir / "runs.parquet"),
+                   pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
+                   pl.read_parquet(results_dir / "examples.parquet"),
+                   pl.read_parquet(results_dir / "edge_effect.parquet"),
+                   json.loads((results_dir / "parameters.json").read_text()))
+
+
+@dataclass
+class Example:
+    """One representative segment of a pavement, solved at every modulus of the job."""
+
+    group: str
+    run_id: str
+    dx: float
+    heights: np.ndarray
+    envelopes: dict[float, np.ndarray]
+    pressures: dict[float, np.ndarray]
+
+
+def load_examples(results: Results, max_groups: int = 4) -> list[Example]:
+    """The example segment (each run's middle segment, solved by the job at every modulus) of the
+    first run of each pavement type (or run), read from ``examples.parquet``."""
+    column = results.group_column()
+    runs = results.segments.select("run_id", column).unique(maintain_order=True)
+    chosen = runs.group_by(column, maintain_order=True).first().head(max_groups)
+    examples = []
+    for run_id, group in chosen.select("run_id", column).iter_rows():
+        rows = results.examples.filter(pl.col("run_id") == run_id).sort("youngs_modulus", "position")
+        if rows.height == 0:
+            continue
+        moduli = rows["youngs_modulus"].unique(maintain_order=True).to_list()
+        first = rows.filter(pl.col("youngs_modulus") == moduli[0])
+        examples.append(Example(
+            str(group), run_id, float(first["dx"][0]), first["height"].to_numpy(),
+            {e: rows.filter(pl.col("youngs_modulus") == e)["envelope"].to_numpy() for e in moduli},
+            {e: rows.filter(pl.col("youngs_modulus") == e)["pressure"].to_numpy() for e in moduli}))
+    return examples

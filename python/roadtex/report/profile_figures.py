@@ -1,0 +1,106 @@
+"""The report's profile-level figures (seed figures 2.1, 3.1, 4.1 to 4.3), drawn from the job's
+example segments and edge-effect table."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+import polars as pl
+
+from roadtex.models.comparisons import SEED_D_STAR, penetration_table, von_meier_envelopes
+from roadtex.report.data import COLOURS, MM, Example, modulus_label
+
+
+def middle_window(example: Example, length: float = 0.1) -> slice:
+    """A window of ``length`` (m) in the middle of the segment, so texture is visible at a glance."""
+    n = example.heights.size
+    points = min(n, max(8, int(round(length / example.dx))))
+    first = (n - points) // 2
+    return slice(first, first + points)
+
+
+def fig_von_meier(plt, examples: list[Example]):
+    example = examples[0]
+    view = middle_window(example)
+    table = von_meier_envelopes(example.heights, example.dx, d_stars=(13.5, 27.0, 54.0, 108.0)).filter(
+        (pl.col("index") >= view.start) & (pl.col("index") < view.stop))
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    first = table.filter(pl.col("d_star") == table["d_star"][0])
+    ax.plot(first["x"] * MM, first["height"] * MM, color="0.3", lw=0.8, label="road profile")
+    for colour, ((d_star,), rows) in zip(COLOURS, table.group_by("d_star", maintain_order=True)):
+        ax.plot(rows["x"] * MM, rows["envelope"] * MM, color=colour, lw=1.1, label=f"d* = {d_star / 1e3:g} 1/mm")
+    ax.set(xlabel="distance x (mm)", ylabel="height z (mm)", title=f"von Meier envelopes, {example.group}")
+    ax.legend(ncols=5, loc="lower center")
+    return fig
+
+
+def fig_edge_effect(plt, table: pl.DataFrame):
+    """Figure 3.1 from the job's ``edge_effect.parquet``."""
+    modulus, mean_pressure = float(table["youngs_modulus"][0]), float(table["mean_pressure"][0])
+    points = table.filter(pl.col("model") == table["model"][0])
+    length = float(points["x"].max() + points["x"].min())  # centres run from dx/2 to L - dx/2
+    styles = {"finite": (COLOURS[1], "-"), "periodic": (COLOURS[0], "-"), "flat punch (exact)": ("0.4", ":")}
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    for (model,), rows in table.group_by("model", maintain_order=True):
+        colour, style = styles.get(model, ("0.5", "--"))
+        ax.plot(rows["x"] * MM, rows["pressure"] / 1e6, color=colour, ls=style, label=model)
+    ax.set(xlabel="distance x (mm)", ylabel="pressure p (MPa)", ylim=(0, 4 * mean_pressure / 1e6),
+           title=f"Flat profile, L = {length * MM:g} mm, {modulus_label(modulus)}, P = {mean_pressure / 1e6:g} MPa")
+    ax.legend()
+    return fig
+
+
+def per_group(plt, examples: list[Example], draw: Callable[[Any, Example], None], ylabel: str, title: str):
+    fig, axes = plt.subplots(len(examples), 1, figsize=(8, 2.2 * len(examples) + 0.4), squeeze=False, sharex=True)
+    for ax, example in zip(axes[:, 0], examples):
+        draw(ax, example)
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{example.group} (run {example.run_id})", loc="left")
+    axes[-1, 0].set_xlabel("distance x (mm)")
+    axes[0, 0].legend(ncols=len(examples[0].envelopes) + 1, loc="lower center", fontsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def fig_envelopes(plt, examples: list[Example]):
+    def draw(ax, example: Example) -> None:
+        view = middle_window(example)
+        x = np.arange(example.heights.size)[view] * example.dx * MM
+        ax.plot(x, example.heights[view] * MM, color="0.3", lw=0.8, label="road profile")
+        for colour, (e, envelope) in zip(COLOURS, example.envelopes.items()):
+            ax.plot(x, envelope[view] * MM, color=colour, lw=1.0, label=modulus_label(e))
+
+    return per_group(plt, examples, draw, "height (mm)", "Enveloped profiles (INRETS periodic model)")
+
+
+def fig_pressures(plt, examples: list[Example]):
+    def draw(ax, example: Example) -> None:
+        view = middle_window(example)
+        x = np.arange(example.heights.size)[view] * example.dx * MM
+        for colour, (e, pressure) in zip(COLOURS, example.pressures.items()):
+            ax.plot(x, pressure[view] / 1e6, color=colour, lw=0.9, label=modulus_label(e))
+        ax.set_yscale("symlog", linthresh=0.1)
+
+    return per_group(plt, examples, draw, "p (MPa)", "Contact pressure (INRETS periodic model)")
+
+
+def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], mean_pressure: float):
+    fig, axes = plt.subplots(1, len(examples), figsize=(3.2 * len(examples) + 0.6, 3.6), squeeze=False)
+    for ax, example in zip(axes[0], examples):
+        table = penetration_table(example.heights, example.dx, example.envelopes, mean_pressure=mean_pressure,
+                                  min_depth=2e-5)
+        top = 0.0
+        for colour, e in zip(COLOURS, moduli):
+            rows = table.filter(pl.col("youngs_modulus") == e)
+            ax.scatter(rows["von_meier_penetration"] * MM, rows["inrets_penetration"] * MM, s=10, color=colour,
+                       alpha=0.8, label=modulus_label(e))
+            if rows.height:
+                top = max(top, float(rows["von_meier_penetration"].max()), float(rows["inrets_penetration"].max()))
+        ax.plot([0, top * MM], [0, top * MM], color="0.5", lw=0.7, ls=":", label="equal penetration")
+        ax.set(xlabel=f"von Meier (d* = {SEED_D_STAR / 1e3:g} 1/mm) penetration (mm)",
+               ylabel="INRETS penetration (mm)", title=example.group)
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig

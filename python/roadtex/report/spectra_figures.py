@@ -1,0 +1,137 @@
+"""The report's spectral figures (seed figures 4.4 to 4.6) and the solver speed against error."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from roadtex.report.data import COLOURS, Results, energetic_mean, modulus_label
+from roadtex.spectra.analysis import band_regressions
+from roadtex.spectra.bands import OCTAVE_BANDS, REFERENCE_PRESSURE, nominal_label
+
+
+def band_axis(ax, labels: list[str], kind: str) -> None:
+    ax.set_xticks(range(len(labels)))
+    ax.set_xticklabels(labels, rotation=90)
+    ax.set_xlabel(f"{'octave' if kind == 'octave' else 'one-third-octave'} band, centre wavelength (mm)")
+
+
+def mean_spectra(results: Results, level: str) -> pl.DataFrame:
+    group = results.group_column()
+    bands = results.bands.join(results.segments.select("run_id", group).unique(), on="run_id", how="left")
+    return (bands.filter(pl.col(level).is_finite())
+            .group_by(group, "youngs_modulus", "band", maintain_order=True)
+            .agg(pl.col("label").first(), energetic_mean(pl.col(level)).alias(level))
+            .sort(group, "youngs_modulus", "band"))
+
+
+def fig_texture_spectra(plt, results: Results):
+    group = results.group_column()
+    enveloped = mean_spectra(results, "enveloped_level")
+    original = mean_spectra(results, "texture_level").filter(pl.col("youngs_modulus") == results.moduli[0])
+    labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
+    position = {b: i for i, b in enumerate(labels["band"])}
+    groups = enveloped[group].unique(maintain_order=True).to_list()
+    fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 0.6, 6.2), squeeze=False, sharex=True)
+    for column, name in enumerate(groups):
+        top, bottom = axes[0, column], axes[1, column]
+        base = original.filter(pl.col(group) == name)
+        top.plot([position[b] for b in base["band"]], base["texture_level"], color="0.2", lw=1.6, label="original")
+        for colour, e in zip(COLOURS, results.moduli):
+            rows = enveloped.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
+            xs = [position[b] for b in rows["band"]]
+            top.plot(xs, rows["enveloped_level"], color=colour, lw=1.0, label=modulus_label(e))
+            joined = rows.join(base.select("band", "texture_level"), on="band")
+            bottom.plot([position[b] for b in joined["band"]], joined["enveloped_level"] - joined["texture_level"],
+                        color=colour, lw=1.0, marker=".", label=modulus_label(e))
+        top.set(title=str(name), ylabel="texture level L_tx (dB re 1 µm)")
+        bottom.set(ylabel="enveloped − original (dB)")
+        bottom.axhline(0, color="0.5", lw=0.7)
+        band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def fig_pressure_spectra(plt, results: Results):
+    group = results.group_column()
+    spectra = mean_spectra(results, "pressure_level")
+    labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
+    position = {b: i for i, b in enumerate(labels["band"])}
+    groups = spectra[group].unique(maintain_order=True).to_list()
+    fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 0.6, 3.6), squeeze=False, sharey=True)
+    for ax, name in zip(axes[0], groups):
+        for colour, e in zip(COLOURS, results.moduli):
+            rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
+            ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
+                    marker=".", label=modulus_label(e))
+        ax.set_title(str(name))
+        band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
+    axes[0, 0].set_ylabel(f"pressure level L_p (dB re {REFERENCE_PRESSURE:g} Pa)")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def octave_table(results: Results) -> pl.DataFrame:
+    """Per run and E, the octave-band levels (third octaves n-1, n, n+1 summed in power into octave n)
+    of the enveloped profile and the pressure, energetically averaged over the run's segments."""
+    kind = results.options.get("band_kind", "third_octave")
+    bands = results.bands
+    if kind == "third_octave":
+        octave_of = {b + d: b for b in OCTAVE_BANDS for d in (-1, 0, 1)}
+        bands = bands.with_columns(pl.col("band").replace_strict(octave_of, default=None).alias("octave"))
+        complete = bands.group_by("run_id", "segment", "youngs_modulus", "octave").agg(
+            pl.len().alias("parts"),
+            *[(10.0 * (10.0 ** (pl.col(c) / 10.0)).sum().log10()).alias(c)
+              for c in ("enveloped_level", "pressure_level", "texture_level")])
+        bands = complete.filter((pl.col("parts") == 3) & pl.col("octave").is_not_null()).rename({"octave": "band"})
+    per_run = (bands.group_by("run_id", "youngs_modulus", "band")
+               .agg(*[energetic_mean(pl.col(c)).alias(c) for c in ("enveloped_level", "pressure_level", "texture_level")])
+               .with_columns(pl.col("band").map_elements(nominal_label, return_dtype=pl.String).alias("label"))
+               .sort("band", "youngs_modulus", "run_id"))
+    return per_run
+
+
+def fig_pressure_vs_texture(plt, results: Results):
+    octaves = octave_table(results).filter(pl.col("enveloped_level").is_finite() & pl.col("pressure_level").is_finite())
+    fits = band_regressions(octaves, x="enveloped_level", y="pressure_level", by=("band", "youngs_modulus"))
+    band_list = octaves["band"].unique().sort().to_list()
+    columns = min(4, len(band_list))
+    rows = int(np.ceil(len(band_list) / columns))
+    fig, axes = plt.subplots(rows, columns, figsize=(3.0 * columns + 0.5, 2.7 * rows + 0.4), squeeze=False)
+    for ax in axes.ravel()[len(band_list):]:
+        ax.set_visible(False)
+    for ax, band in zip(axes.ravel(), band_list):
+        for colour, e in zip(COLOURS, results.moduli):
+            pts = octaves.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
+            ax.scatter(pts["enveloped_level"], pts["pressure_level"], s=12, color=colour, label=modulus_label(e))
+            fit = fits.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
+            if fit.height and np.isfinite(fit["slope"][0]) and pts.height:
+                xs = np.array([pts["enveloped_level"].min(), pts["enveloped_level"].max()])
+                ax.plot(xs, fit["slope"][0] * xs + fit["intercept"][0], color=colour, lw=1.0)
+        ax.set_title(f"octave {pts['label'][0] if pts.height else band} mm")
+        ax.set_xlabel("enveloped texture level (dB re 1 µm)")
+        ax.set_ylabel("pressure level (dB)")
+    axes[0, 0].legend(fontsize=6)
+    fig.tight_layout()
+    return fig, fits
+
+
+def fig_speed_vs_error(plt, benchmark: dict[str, Any]):
+    rows = [r for r in benchmark.get("rows", []) if r.get("time_s") and r.get("l1_error") is not None]
+    if not rows:
+        return None
+    table = pl.DataFrame(rows, infer_schema_length=None)
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    markers = {"westergaard": "o", "self_affine": "s"}
+    for colour, ((solver,), group) in zip(COLOURS, table.group_by("solver", maintain_order=True)):
+        for case, sub in group.group_by("case", maintain_order=True):
+            ax.scatter(sub["l1_error"], sub["time_s"], color=colour, marker=markers.get(case[0], "^"), s=18,
+                       label=f"{solver} ({case[0]})")
+    ax.set(xscale="log", yscale="log", xlabel="relative L1 pressure error", ylabel="time per solve (s)",
+           title="Speed against error (benchmark)")
+    ax.legend(fontsize=6)
+    return fig
