@@ -49,6 +49,15 @@ class ArchiveWriteError(RoadtexError, OSError):
     """Output could not be written (unwritable folder, full disk): the job stops, nothing is corrupted."""
 
 
+class RunFailure(RoadtexError):
+    """One run of a bulk job failed at ``stage`` (read, condition, mpd, segment, spectra, solve)
+    because of ``cause``; the job records it in errors.parquet and goes on."""
+
+    def __init__(self, stage: str, cause: BaseException):
+        super().__init__(f"{stage}: {cause}")
+        self.stage, self.cause = stage, cause
+
+
 class ResultsNotFoundError(RoadtexError, FileNotFoundError):
     """A results folder lacks what was asked of it (not processed, or processed without the option
     that writes it)."""
@@ -78,6 +87,6 @@ class ConditioningWarning(RoadtexWarning):
 
 __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError",
+    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
 ]

@@ -9,7 +9,7 @@ import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
 from roadtex.archive.schemas import BAND_SCHEMA, EXAMPLE_SCHEMA, METADATA_COLUMNS, PROFILE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
-from roadtex.errors import ArchiveWriteError, InvalidInputError
+from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.mpd import mpd as mean_profile_depth
@@ -20,14 +20,6 @@ from roadtex.spectra.levels import band_levels
 
 #: Segments solved per call of the Rust core; bounds memory on long runs.
 CHUNK_SEGMENTS = 2048
-
-
-class RunFailure(Exception):
-    """One run failed at ``stage`` (read, condition, mpd, segment, spectra, solve) because of ``cause``."""
-
-    def __init__(self, stage: str, cause: BaseException):
-        super().__init__(f"{stage}: {cause}")
-        self.stage, self.cause = stage, cause
 
 
 def run_stage(stage: str, action: Callable[[], Any]) -> Any:
