@@ -152,3 +152,17 @@ def test_the_report_builds_from_the_results_folder_alone(tmp_path: Path) -> None
         expected = segments.filter((pl.col("run_id") == run_id) & (pl.col("segment") == segment)
                                    & (pl.col("youngs_modulus") == modulus))["contact_fraction"].item()
         assert np.mean(pressure > 0) == expected
+
+
+def test_the_report_builds_when_the_manifest_names_no_pavement(tmp_path: Path) -> None:
+    """A manifest made from a folder has no pavement column: runs are then grouped by run id
+    (this crashed with a polars DuplicateError on run_id)."""
+    manifest = write_synthetic_archive(tmp_path / "archive", runs_per_kind=1, run_length=0.6)
+    table = pl.read_csv(manifest).drop("pavement")
+    table.write_csv(manifest)
+    results = tmp_path / "results"
+    process(manifest, results, OPTIONS, quiet=True)
+    report = roadtex.build_report(results)
+    text = report.html.read_text(encoding="utf-8")
+    for run_id in table["run_id"]:
+        assert run_id in text

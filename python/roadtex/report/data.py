@@ -55,6 +55,13 @@ class Results:
     def moduli(self) -> list[float]:
         return sorted(self.segments["youngs_modulus"].unique().to_list())
 
+    def run_groups(self) -> pl.DataFrame:
+        """One row per run: ``run_id`` and ``group``, the run's pavement type when the manifest gave
+        one, else the run id itself."""
+        column = self.group_column()
+        return (self.segments.select("run_id", pl.col(column).cast(pl.String).alias("group"))
+                .unique(subset="run_id", maintain_order=True))
+
     def group_column(self) -> str:
         """Pavement type when the manifest gave it, else the run id."""
         if self.segments["pavement"].null_count() < self.segments.height:
@@ -97,11 +104,9 @@ class Example:
 def load_examples(results: Results, max_groups: int = 4) -> list[Example]:
     """The example segment (each run's middle segment, solved by the job at every modulus) of the
     first run of each pavement type (or run), read from ``examples.parquet``."""
-    column = results.group_column()
-    runs = results.segments.select("run_id", column).unique(maintain_order=True)
-    chosen = runs.group_by(column, maintain_order=True).first().head(max_groups)
+    chosen = results.run_groups().group_by("group", maintain_order=True).first().head(max_groups)
     examples = []
-    for run_id, group in chosen.select("run_id", column).iter_rows():
+    for group, run_id in chosen.select("group", "run_id").iter_rows():
         rows = results.examples.filter(pl.col("run_id") == run_id).sort("youngs_modulus", "position")
         if rows.height == 0:
             continue

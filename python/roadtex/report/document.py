@@ -65,8 +65,9 @@ def run_table(results: Results) -> pl.DataFrame:
     seg = results.segments
     per_e = (seg.group_by("run_id", "youngs_modulus", maintain_order=True)
              .agg(pl.col("contact_fraction").mean(), pl.col("mean_gap").mean(), pl.col("max_pressure").max()))
-    rows = results.runs.select("run_id", "length", "mpd").join(
-        seg.select("run_id", results.group_column()).unique(), on="run_id", how="left")
+    rows = results.runs.select("run_id", "length", "mpd")
+    if results.group_column() != "run_id":
+        rows = rows.join(results.run_groups().rename({"group": results.group_column()}), on="run_id", how="left")
     wide = rows
     for e in results.moduli:
         part = per_e.filter(pl.col("youngs_modulus") == e).select(

@@ -19,8 +19,8 @@ def band_axis(ax, labels: list[str], kind: str) -> None:
 
 
 def mean_spectra(results: Results, level: str) -> pl.DataFrame:
-    group = results.group_column()
-    bands = results.bands.join(results.segments.select("run_id", group).unique(), on="run_id", how="left")
+    group = "group"
+    bands = results.bands.join(results.run_groups(), on="run_id", how="left")
     return (bands.filter(pl.col(level).is_finite())
             .group_by(group, "youngs_modulus", "band", maintain_order=True)
             .agg(pl.col("label").first(), energetic_mean(pl.col(level)).alias(level))
@@ -28,7 +28,7 @@ def mean_spectra(results: Results, level: str) -> pl.DataFrame:
 
 
 def fig_texture_spectra(plt, results: Results):
-    group = results.group_column()
+    group = "group"
     enveloped = mean_spectra(results, "enveloped_level")
     original = mean_spectra(results, "texture_level").filter(pl.col("youngs_modulus") == results.moduli[0])
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
@@ -56,7 +56,7 @@ def fig_texture_spectra(plt, results: Results):
 
 
 def fig_pressure_spectra(plt, results: Results):
-    group = results.group_column()
+    group = "group"
     spectra = mean_spectra(results, "pressure_level")
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
