@@ -23,8 +23,8 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 use criterion::Throughput;
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 use roadtex::batch::{solve_many, Segments};
 use roadtex::compliance::PeriodicCompliance;
 use roadtex::reference::Westergaard;
@@ -142,8 +142,7 @@ fn westergaard(c: &mut Criterion) {
     let base = Westergaard { amplitude, wavelength, plane_strain_modulus: rubber.plane_strain_modulus(), mean_pressure: 1.0 };
     let exact = Westergaard { mean_pressure: 0.3 * base.full_contact_pressure(), ..base };
     let dx = wavelength / n as f64;
-    let heights: Vec<f64> =
-        (0..n).map(|i| amplitude * (2.0 * std::f64::consts::PI * i as f64 * dx / wavelength).cos()).collect();
+    let heights: Vec<f64> = (0..n).map(|i| amplitude * (2.0 * std::f64::consts::PI * i as f64 * dx / wavelength).cos()).collect();
     let solver = ContactSolver::new(n, dx, SolverOptions { tol: 1e-10, ..Default::default() }).expect("solver");
 
     let sol = solver.solve(&heights, rubber, exact.mean_pressure).expect("solve");

@@ -63,8 +63,7 @@ pub fn solve_many(
     }
     let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
     for s in 0..segments.count() {
-        validate_problem(segments.row(s), dx, mean_pressure)
-            .map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
+        validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
     }
     let solver = ContactSolver::new(segments.len, dx, options)?;
     let jobs = segments.count() * materials.len();

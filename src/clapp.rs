@@ -81,10 +81,7 @@ impl ClappOptions {
             return invalid(format!("sub_profile must be at least 8 points, got {}", self.sub_profile));
         }
         if 2 * self.overlap >= self.sub_profile {
-            return invalid(format!(
-                "overlap must be less than half of sub_profile ({} points), got {}",
-                self.sub_profile, self.overlap
-            ));
+            return invalid(format!("overlap must be less than half of sub_profile ({} points), got {}", self.sub_profile, self.overlap));
         }
         Ok(())
     }
@@ -237,9 +234,7 @@ fn solve_window(coefficients: &[f64], heights: &[f64], core: Range<usize>, targe
             *g = u + approach - z[i];
         }
         let mut next: Vec<usize> = if sweep <= BULK_SWEEPS {
-            (0..m)
-                .filter(|&i| if active.binary_search(&i).is_ok() { q[i] > 0.0 } else { gap[i] < -slack })
-                .collect()
+            (0..m).filter(|&i| if active.binary_search(&i).is_ok() { q[i] > 0.0 } else { gap[i] < -slack }).collect()
         } else {
             // One change per sweep: drop the most negative pressure, else add the worst penetration.
             let worst_p = active.iter().copied().filter(|&i| q[i] <= 0.0).min_by(|&a, &b| q[a].total_cmp(&q[b]));

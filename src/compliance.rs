@@ -43,14 +43,7 @@ impl PeriodicCompliance {
     pub fn new(n: usize, dx: f64, kind: KernelKind) -> Self {
         let spectrum = periodic_spectrum(n, dx, kind);
         let inverse_spectrum = spectrum.iter().map(|&l| if l > 0.0 { 1.0 / l } else { 0.0 }).collect();
-        Self {
-            circulant: Circulant::new(n),
-            spectrum,
-            inverse_spectrum,
-            coefficients: std::sync::OnceLock::new(),
-            dx,
-            kind,
-        }
+        Self { circulant: Circulant::new(n), spectrum, inverse_spectrum, coefficients: std::sync::OnceLock::new(), dx, kind }
     }
 
     /// Eigenvalues lambda_q, q = 0..=N/2 (m per unit pressure / E*).

@@ -85,10 +85,7 @@ pub fn finite_coefficients(n: usize, dx: f64) -> Vec<f64> {
                 // Taylor series of the same difference about m, free of cancellation far away:
                 // ln m - 1/(24 m^2) - 1/(320 m^4) - 1/(2688 m^6) - 1/(18432 m^8) - 1/(112640 m^10).
                 let inv2 = 1.0 / (m * m);
-                m.ln()
-                    - inv2
-                        * (1.0 / 24.0
-                            + inv2 * (1.0 / 320.0 + inv2 * (1.0 / 2688.0 + inv2 * (1.0 / 18432.0 + inv2 / 112640.0))))
+                m.ln() - inv2 * (1.0 / 24.0 + inv2 * (1.0 / 320.0 + inv2 * (1.0 / 2688.0 + inv2 * (1.0 / 18432.0 + inv2 / 112640.0))))
             };
             -2.0 / PI * dx * (in_units + dx.ln())
         })

@@ -72,13 +72,7 @@ fn solve<'py>(
             ContactSolver::new(heights.len(), dx, options)?.solve(&heights, material, mean_pressure)
         })
         .map_err(to_py_err)?;
-    Ok((
-        solution.pressure.into_pyarray(py),
-        solution.envelope.into_pyarray(py),
-        solution.iterations,
-        solution.residual,
-        solution.converged,
-    ))
+    Ok((solution.pressure.into_pyarray(py), solution.envelope.into_pyarray(py), solution.iterations, solution.residual, solution.converged))
 }
 
 type SolvedMany<'py> = (
@@ -115,9 +109,7 @@ fn solve_many<'py>(
     let moduli = youngs_moduli.as_slice()?.to_vec();
     let m = moduli.len();
     let solutions = py
-        .detach(|| {
-            solve_many_core(Segments { heights: &heights, len }, dx, &moduli, poisson, mean_pressure, options, threads, warm_start)
-        })
+        .detach(|| solve_many_core(Segments { heights: &heights, len }, dx, &moduli, poisson, mean_pressure, options, threads, warm_start))
         .map_err(to_py_err)?;
     let mut pressure = Vec::with_capacity(count * m * len);
     let mut envelope = Vec::with_capacity(count * m * len);

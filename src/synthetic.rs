@@ -49,8 +49,7 @@ pub fn self_affine(n: usize, length: f64, hurst: f64, rms_slope: f64, cutoff_fra
     // `spectrum` has zero imaginary part at bin 0 by construction.
     let _ = inverse.process(&mut spectrum, &mut heights);
     let dx = length / n as f64;
-    let slope_ms: f64 =
-        (0..n).map(|i| ((heights[(i + 1) % n] - heights[i]) / dx).powi(2)).sum::<f64>() / n as f64;
+    let slope_ms: f64 = (0..n).map(|i| ((heights[(i + 1) % n] - heights[i]) / dx).powi(2)).sum::<f64>() / n as f64;
     let factor = if slope_ms > 0.0 { rms_slope / slope_ms.sqrt() } else { 0.0 };
     heights.iter_mut().for_each(|h| *h *= factor);
     heights

@@ -38,11 +38,7 @@ pub struct Problem {
 pub fn solve(problem: &Problem) -> roadtex::Result<ContactSolution> {
     let material = Material::new(problem.youngs_modulus, problem.poisson)?;
     validate_problem(&problem.heights, problem.dx, problem.mean_pressure)?;
-    ContactSolver::new(problem.heights.len(), problem.dx, problem.options)?.solve(
-        &problem.heights,
-        material,
-        problem.mean_pressure,
-    )
+    ContactSolver::new(problem.heights.len(), problem.dx, problem.options)?.solve(&problem.heights, material, problem.mean_pressure)
 }
 
 /// Known, reported bugs of the core, so that fuzzing can look past them: `Some(reason)` when the
@@ -56,7 +52,6 @@ pub fn solve(problem: &Problem) -> roadtex::Result<ContactSolution> {
 pub fn known_issue(_problem: &Problem) -> Option<&'static str> {
     None
 }
-
 
 /// Solves and checks; `Err` describes a broken promise (the fuzz targets panic on it).
 pub fn solve_and_check(problem: &Problem) -> Result<Option<ContactSolution>, String> {

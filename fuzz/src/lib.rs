@@ -154,19 +154,25 @@ impl ShapedInput {
     pub fn problem(&self) -> Problem {
         let large = self.flags & 0x18 == 0x18;
         let direct = self.flags & 4 != 0;
-        let max_n = if direct { MAX_DIRECT_N } else if large { MAX_N } else { MAX_CHECKED_N };
+        let max_n = if direct {
+            MAX_DIRECT_N
+        } else if large {
+            MAX_N
+        } else {
+            MAX_CHECKED_N
+        };
         let periodic = self.flags & 1 == 0;
         Problem {
             heights: self.profile.heights(max_n),
-            dx: 10f64.powi(self.dx_exp as i32 % 10 - 8),             // 1e-8 .. 10 m
-            youngs_modulus: 10f64.powi(self.e_exp as i32 % 13 + 2),   // 1e2 .. 1e14 Pa
-            poisson: -0.99 + 1.49 * self.poisson as f64 / 255.0,      // -0.99 .. 0.5
-            mean_pressure: 10f64.powi(self.p_exp as i32 % 13),        // 1 .. 1e12 Pa
+            dx: 10f64.powi(self.dx_exp as i32 % 10 - 8),            // 1e-8 .. 10 m
+            youngs_modulus: 10f64.powi(self.e_exp as i32 % 13 + 2), // 1e2 .. 1e14 Pa
+            poisson: -0.99 + 1.49 * self.poisson as f64 / 255.0,    // -0.99 .. 0.5
+            mean_pressure: 10f64.powi(self.p_exp as i32 % 13),      // 1 .. 1e12 Pa
             options: SolverOptions {
                 periodic,
                 kernel: if periodic && self.flags & 2 != 0 { KernelKind::Spectral } else { KernelKind::Element },
                 method: if direct { Method::Direct } else { Method::ConjugateGradient },
-                tol: 10f64.powi(-(self.tol_exp as i32 % 13) - 1),    // 1e-1 .. 1e-13
+                tol: 10f64.powi(-(self.tol_exp as i32 % 13) - 1), // 1e-1 .. 1e-13
                 max_iterations: 1 + self.max_iterations as usize % MAX_ITERATIONS,
             },
         }
@@ -195,7 +201,10 @@ pub fn run_contact(problem: &Problem) {
         match &outcome {
             Ok(Some(s)) => eprintln!(
                 "solved in {:.3} s: converged {}, residual {:e}, iterations {}, contact fraction {}",
-                started.elapsed().as_secs_f64(), s.converged, s.residual, s.iterations,
+                started.elapsed().as_secs_f64(),
+                s.converged,
+                s.residual,
+                s.iterations,
                 s.pressure.iter().filter(|&&p| p > 0.0).count() as f64 / s.pressure.len() as f64
             ),
             Ok(None) => eprintln!("rejected (or known issue) in {:.3} s", started.elapsed().as_secs_f64()),

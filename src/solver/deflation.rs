@@ -75,9 +75,7 @@ impl PairSums {
                     // SAFETY: 0 <= a <= b <= N and 0 <= c <= d <= N (asserted above), so every
                     // index lies in [0, 2N] and `second` has 2N + 1 entries. Unchecked because
                     // this loop dominates the coarse-space cost and its bounds checks do not vectorise.
-                    unsafe {
-                        (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d))
-                    }
+                    unsafe { (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d)) }
                 })
                 .sum()
         };
@@ -126,7 +124,6 @@ pub(crate) fn runs(mask: &[bool]) -> Vec<(usize, usize)> {
     }
     out
 }
-
 
 /// Zero-sum island vectors Z0_g = 1_{group g} - (|group g| / m) 1_A, where a group is one run
 /// of contact or, when there are more runs than `max_dim`, several consecutive runs; with the
@@ -182,9 +179,7 @@ impl CoarseSpace {
             (row, total)
         } else {
             let u = displacement_of_set.expect("C 1_A is needed when some runs are left out");
-            let row = (0..groups)
-                .map(|g| runs[bounds[g]..bounds[g + 1]].iter().map(|&(s, e)| u[s..e].iter().sum::<f64>()).sum())
-                .collect();
+            let row = (0..groups).map(|g| runs[bounds[g]..bounds[g + 1]].iter().map(|&(s, e)| u[s..e].iter().sum::<f64>()).sum()).collect();
             let total = u.iter().zip(mask).filter(|(_, &m)| m).map(|(u, _)| u).sum();
             (row, total)
         };
@@ -237,9 +232,10 @@ impl CoarseSpace {
     /// Z0^T v for v supported on the contact set (its sum over the set is `v_total`), into `out`.
     pub fn restrict(&self, v: &[f64], v_total: f64, out: &mut Vec<f64>) {
         out.clear();
-        out.extend((0..self.dim()).map(|g| {
-            self.group(g).iter().map(|&(s, e)| v[s..e].iter().sum::<f64>()).sum::<f64>() - self.weights[g] * v_total
-        }));
+        out.extend(
+            (0..self.dim())
+                .map(|g| self.group(g).iter().map(|&(s, e)| v[s..e].iter().sum::<f64>()).sum::<f64>() - self.weights[g] * v_total),
+        );
     }
 
     /// E^-1 y in place.
@@ -326,7 +322,8 @@ mod tests {
             let members = |grp: usize| -> Vec<usize> { runs[bounds[grp]..bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
             for a in 0..groups {
                 for b in 0..groups {
-                    let direct: f64 = members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
+                    let direct: f64 =
+                        members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
                     assert!((g[a * groups + b] - direct).abs() < 1e-9 * direct.abs().max(1.0), "{bounds:?} {a} {b}");
                 }
             }

@@ -15,10 +15,10 @@ mod deflation;
 pub mod direct;
 
 use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance};
-use crate::kernel::CirculantScratch;
-use deflation::PairSums;
 use crate::error::{invalid, Result};
+use crate::kernel::CirculantScratch;
 use crate::kernel::KernelKind;
+use deflation::PairSums;
 
 /// Fewest elements a profile may have: below this the discrete model says nothing useful.
 pub const MIN_ELEMENTS: usize = 8;
@@ -178,8 +178,7 @@ const DERIVED_LIMIT: f64 = 1e60;
 /// length (m), must stay well inside double precision too (fuzz findings F1, F2 lay beyond 1e+-100).
 pub(crate) fn check_strain(strain: f64, sample_length: f64) -> Result<()> {
     let displacement_scale = strain * sample_length;
-    if !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&strain)
-        || !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&displacement_scale)
+    if !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&strain) || !(DERIVED_LIMIT.recip()..=DERIVED_LIMIT).contains(&displacement_scale)
     {
         return invalid(format!(
             "mean_pressure / E* = {strain:e} (over the sample {displacement_scale:e} m) is beyond what double precision carries \
