@@ -7,6 +7,9 @@ use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectru
 pub trait Compliance: Sync {
     type Scratch: Send;
     fn len(&self) -> usize;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
     fn scratch(&self) -> Self::Scratch;
     /// out = C * pressure (displacement up to the rigid constant).
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);

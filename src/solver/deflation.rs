@@ -251,8 +251,8 @@ impl CoarseSpace {
                 *o -= shift;
             }
         }
-        for g in 0..self.dim() {
-            let value = factor * q[g];
+        for (g, &qg) in q[..self.dim()].iter().enumerate() {
+            let value = factor * qg;
             for &(s, e) in self.group(g) {
                 out[s..e].iter_mut().for_each(|o| *o += value);
             }
