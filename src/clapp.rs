@@ -51,7 +51,7 @@ use std::ops::Range;
 use crate::error::{invalid, ContactError, Result};
 use crate::kernel::finite_coefficients;
 use crate::solver::direct::contact_set_solve;
-use crate::solver::{check_strain, validate_problem, Material};
+use crate::solver::{check_strain, validate_problem, Material, MAX_DIRECT_ELEMENTS};
 
 /// Sweeps with bulk changes of the trial set before the loop changes one point per sweep.
 pub const BULK_SWEEPS: usize = 50;
@@ -79,6 +79,14 @@ impl ClappOptions {
     pub fn validate(&self) -> Result<()> {
         if self.sub_profile < 8 {
             return invalid(format!("sub_profile must be at least 8 points, got {}", self.sub_profile));
+        }
+        if self.sub_profile > MAX_DIRECT_ELEMENTS {
+            // Each window is solved with a dense sub_profile x sub_profile matrix, like method='direct'.
+            return invalid(format!(
+                "sub_profile must be at most {MAX_DIRECT_ELEMENTS} points, got {}: each window is solved with a dense \
+                 sub_profile x sub_profile matrix (memory N^2, time N^3 per window), as method='direct' is",
+                self.sub_profile
+            ));
         }
         if 2 * self.overlap >= self.sub_profile {
             return invalid(format!("overlap must be less than half of sub_profile ({} points), got {}", self.sub_profile, self.overlap));
@@ -159,7 +167,7 @@ pub fn clapp(heights: &[f64], dx: f64, material: Material, mean_pressure: f64, o
     // Every core carries P times its length: this factor is 1 to rounding.
     let total: f64 = pressure.iter().sum();
     if total.is_nan() || total <= 0.0 {
-        return Err(ContactError::DirectSolverFailed("no window core carries any load".into()));
+        return Err(ContactError::ClappFailed("no window core carries any load".into()));
     }
     let factor = mean_pressure * n as f64 / total;
     pressure.iter_mut().for_each(|p| *p *= factor);
@@ -255,7 +263,7 @@ fn solve_window(coefficients: &[f64], heights: &[f64], core: Range<usize>, targe
         }
         active = next;
     }
-    Err(ContactError::DirectSolverFailed(format!("a sub-profile's active set did not settle in {MAX_SWEEPS} sweeps")))
+    Err(ContactError::ClappFailed(format!("a window's (sub-profile's) active set did not settle in {MAX_SWEEPS} sweeps")))
 }
 
 /// Pressures / E* on `active` and the approach c0 with C_AA q + c0 = z_A, the sum of q over the
@@ -270,7 +278,7 @@ fn solve_on_set(coefficients: &[f64], z: &[f64], active: &[usize], core: &Range<
         target_sum,
         coefficients[0].abs(),
     )
-    .ok_or_else(|| ContactError::DirectSolverFailed("no positive-definite shift of a sub-profile's contact-set matrix was found".into()))
+    .ok_or_else(|| ContactError::ClappFailed("no positive-definite shift of a window's contact-set matrix was found".into()))
 }
 
 #[cfg(test)]
@@ -340,5 +348,12 @@ mod tests {
         assert!(err.to_string().contains("sub_profile"));
         let err = clapp(&z, 1e-4, rubber, 2e5, ClappOptions { sub_profile: 64, overlap: 32, wrap: false }).unwrap_err();
         assert!(err.to_string().contains("overlap"));
+        let too_large = ClappOptions { sub_profile: MAX_DIRECT_ELEMENTS + 1, overlap: 0, wrap: false };
+        let err = clapp(&z, 1e-4, rubber, 2e5, too_large).unwrap_err();
+        assert!(
+            matches!(&err, ContactError::InvalidInput(m) if m.contains("sub_profile") && m.contains("8192") && m.contains("dense")),
+            "{err}"
+        );
+        assert!(ClappOptions { sub_profile: MAX_DIRECT_ELEMENTS, ..too_large }.validate().is_ok());
     }
 }

@@ -1,5 +1,6 @@
-//! The one error type of the numerical core. The Python binding maps every variant to ValueError
-//! (bad input) or RuntimeError (a solver that could not do what was asked).
+//! The one error type of the numerical core. The Python binding maps each variant to a class of
+//! `roadtex.errors` (python/roadtex/errors.py): InvalidInput to InvalidInputError (a ValueError),
+//! DirectSolverFailed to SolverError and ClappFailed to ClappError (RuntimeErrors).
 
 use std::fmt;
 
@@ -9,6 +10,8 @@ pub enum ContactError {
     InvalidInput(String),
     /// The dense direct solver's active-set loop did not settle (it never should on valid input).
     DirectSolverFailed(String),
+    /// A window of Clapp's sub-profile model could not be solved (it never should on valid input).
+    ClappFailed(String),
 }
 
 impl fmt::Display for ContactError {
@@ -16,6 +19,7 @@ impl fmt::Display for ContactError {
         match self {
             ContactError::InvalidInput(msg) => write!(f, "{msg}"),
             ContactError::DirectSolverFailed(msg) => write!(f, "direct solver failed: {msg}"),
+            ContactError::ClappFailed(msg) => write!(f, "Clapp's model failed: {msg}"),
         }
     }
 }

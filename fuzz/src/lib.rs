@@ -250,7 +250,8 @@ pub fn run_envelope(input: &EnvelopeInput) {
                 }
                 Err(ContactError::InvalidInput(m)) => assert!(!m.trim().is_empty()),
                 // Clapp's windows can fail to settle; it says so. Not a panic.
-                Err(ContactError::DirectSolverFailed(m)) => assert!(!m.trim().is_empty()),
+                Err(ContactError::ClappFailed(m)) => assert!(!m.trim().is_empty()),
+                Err(other @ ContactError::DirectSolverFailed(_)) => panic!("clapp reported a direct-solver error: {other}"),
             }
         }
     }

@@ -1,7 +1,18 @@
-"""Type stubs of the Rust extension; the documented API is in roadtex.contact and friends."""
+"""Type stubs of the Rust extension; the documented API is in roadtex.contact and friends.
+
+Errors: every function raises the classes of roadtex.errors: InvalidInputError (a ValueError) for
+unusable arguments, SolverError when the dense direct solver fails, ClappError when Clapp's model
+fails, and InternalError (with the panic's message) if the Rust core panics.
+"""
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "solve", "solve_many", "influence_coefficients", "kernel_spectrum", "westergaard_element_pressure",
+    "westergaard_contact_half_width", "flat_punch_element_pressure", "self_affine_profile", "von_meier", "clapp",
+    "_panic_for_tests", "__version__",
+]
 
 __version__: str
 
@@ -32,3 +43,7 @@ def clapp(
     heights: npt.NDArray[np.float64], dx: float, youngs_modulus: float, poisson: float, mean_pressure: float,
     sub_profile: int, overlap: int, wrap: bool,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], int, int]: ...
+
+# Test hook, not API: panics inside the Rust core (on a rayon thread, with the GIL released) so that
+# tests can check a panic arrives as roadtex.errors.InternalError carrying `message`.
+def _panic_for_tests(message: str) -> None: ...
