@@ -63,23 +63,31 @@ fn warm_up_iterations(n: usize) -> usize {
     (3 * log2).saturating_sub(26).clamp(4, 30)
 }
 
-/// Work vectors of one solve (all of length N). Every solve overwrites them before reading, so one
-/// `Work` can serve any number of solves (of the same N) with bitwise the same results.
+/// Work vectors of one solve (of length N). Every solve overwrites each of them before reading it,
+/// so one `Work` can serve any number of solves (of the same N) with bitwise the same results.
 pub(crate) struct Work<S> {
     scratch: S,
+    /// The sweeps' trial contact set A.
     mask: Vec<bool>,
+    /// Right-hand side, then solution, of the coarse solve (length: the coarse dimension).
     coarse_rhs: Vec<f64>,
     /// The last solve's coarse space and the [`PairSums::id`] it was built from: a warm start
     /// begins on the previous solution's contact set, whose coarse space is then the same (E*
     /// is scaled out), bitwise, so reusing it changes no result.
     coarse: Option<(u64, CoarseSpace)>,
+    /// C p: fresh from an FFT product, or tracked through the CG updates.
     displacement: Vec<f64>,
     residual: Vec<f64>,
     preconditioned: Vec<f64>,
+    /// C y for the preconditioned residual y (the deflation's coarse right-hand side).
     applied: Vec<f64>,
     direction: Vec<f64>,
     applied_direction: Vec<f64>,
     previous: Vec<f64>,
+    /// 1_A, the indicator of the contact set, and C 1_A: only a coarse space that leaves runs out
+    /// needs them (very many runs), so they are sized on first use.
+    set_indicator: Vec<f64>,
+    set_displacement: Vec<f64>,
 }
 
 impl<S> Work<S> {
@@ -97,6 +105,8 @@ impl<S> Work<S> {
             direction: vec![0.0; n],
             applied_direction: vec![0.0; n],
             previous: vec![0.0; n],
+            set_indicator: Vec::new(),
+            set_displacement: Vec::new(),
         }
     }
 
@@ -105,159 +115,407 @@ impl<S> Work<S> {
     }
 }
 
-/// Solves for pressure / E* with mean `mean_strain` on heights `z` (m). `scale` is the height
-/// scale of the residual.
+/// One contact problem in the solver's units, and when to stop.
+pub(crate) struct Problem<'a> {
+    /// Heights relative to the highest point (m).
+    pub z: &'a [f64],
+    /// The prescribed mean of p / E* (P / E*).
+    pub mean_strain: f64,
+    /// Height scale of the residual (m), see [`super::height_scale`].
+    pub scale: f64,
+    pub tol: f64,
+    pub max_iterations: usize,
+}
+
+/// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
+/// under another modulus) when given. `pair_sums` must hold the interval sums of `op`'s kernel.
 pub(crate) fn solve<Op: Compliance>(
     op: &Op,
     pair_sums: &PairSums,
-    z: &[f64],
-    mean_strain: f64,
-    scale: f64,
-    tol: f64,
-    max_iterations: usize,
+    problem: &Problem<'_>,
     initial: Option<&[f64]>,
     work: &mut Work<Op::Scratch>,
 ) -> Outcome {
-    let n = z.len();
+    let n = problem.z.len();
     assert_eq!(work.len(), n, "work vectors of the wrong size");
-    let target_sum = mean_strain * n as f64;
-    let mut mask = std::mem::take(&mut work.mask);
-    let mut gap = vec![0.0; n];
-    let mut coarse: Option<CoarseSpace> = work.coarse.take().filter(|(id, _)| *id == pair_sums.id()).map(|(_, c)| c);
-    let (mut p, warm) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
-        // A neighbouring solution (the same profile under another modulus): its contact set is
-        // close to this one, so the sweeps start from it with its pressure scaled to this load.
-        Some(q) => {
-            let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
-            let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
-            for i in 0..n {
-                mask[i] = p[i] > 0.0;
-            }
-            (p, 0)
-        }
-        None => {
-            // A few bound-constrained CG steps from full contact shed most of the points that are
-            // not in contact far more cheaply than active-set sweeps would.
-            let warm_budget = warm_up_iterations(n).min(max_iterations);
-            let start = bounded_cg(op, z, vec![mean_strain; n], target_sum, scale, tol, warm_budget, work);
-            if start.converged {
-                work.mask = mask;
-                return start;
-            }
-            for i in 0..n {
-                mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
-            }
-            (start.pressure, start.iterations)
-        }
+    // The workspace reuse tag: a kept coarse space is only offered to the sweeps when it was built
+    // from these very pair sums (the same kernel and dx; another solver of the same N has other
+    // sums). The sweeps then reuse it only for the same set and dimension (CoarseSpace::is_same).
+    let coarse = work.coarse.take().filter(|(id, _)| *id == pair_sums.id()).map(|(_, c)| c);
+    let mut context = Context {
+        op,
+        pair_sums,
+        z: problem.z,
+        target_sum: problem.mean_strain * n as f64,
+        scale: problem.scale,
+        tol: problem.tol,
+        coarse,
+        w: work,
     };
-    let max_iterations = max_iterations - warm;
-    let outcome = sweeps(op, pair_sums, z, &mut p, &mut mask, &mut gap, &mut coarse, target_sum, scale, tol, max_iterations, work);
-    work.mask = mask;
-    work.coarse = coarse.map(|c| (pair_sums.id(), c));
-    match outcome {
-        Ok((iterations, res)) => Outcome { pressure: p, gap, iterations: iterations + warm, residual: res, converged: true },
-        Err(iterations) => {
-            let iterations = iterations + warm;
-            // The sweeps did not settle: continue from here with the bound-constrained CG.
-            for x in p.iter_mut() {
-                *x = x.max(0.0);
-            }
-            let total: f64 = p.iter().sum();
-            p.iter_mut().for_each(|x| *x *= target_sum / total);
-            let budget = (max_iterations + warm).saturating_sub(iterations);
-            let fallback = bounded_cg(op, z, p, target_sum, scale, tol, budget, work);
-            Outcome { iterations: iterations + fallback.iterations, ..fallback }
-        }
-    }
+    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations);
+    let Context { coarse, w, .. } = context;
+    w.coarse = coarse.map(|c| (pair_sums.id(), c));
+    outcome
 }
 
-/// The active-set sweeps: Ok((iterations, residual)) when converged, Err(iterations) when they did
-/// not settle.
-#[allow(clippy::too_many_arguments)]
-fn sweeps<Op: Compliance>(
-    op: &Op,
-    pair_sums: &PairSums,
-    z: &[f64],
-    p: &mut [f64],
-    mask: &mut [bool],
-    gap: &mut [f64],
-    coarse: &mut Option<CoarseSpace>,
+/// What the stages of one solve share: the operator and its kernel sums, the problem, the
+/// options, the coarse space and the work vectors.
+struct Context<'a, Op: Compliance> {
+    op: &'a Op,
+    pair_sums: &'a PairSums,
+    z: &'a [f64],
+    /// sum p = N P / E*: every iterate carries the load exactly.
     target_sum: f64,
     scale: f64,
     tol: f64,
-    max_iterations: usize,
-    work: &mut Work<Op::Scratch>,
-) -> std::result::Result<(usize, f64), usize> {
-    let n = z.len();
-    let mut iterations = 0usize;
-    let mut rough = true;
-    let mut deflate = true;
-    // Whether work.displacement holds C p for the current p (tracked, not a fresh product).
-    let mut known = false;
-    let mut leaving: Vec<(usize, f64)> = Vec::new();
-    for _sweep in 0..MAX_SWEEPS {
-        let budget = max_iterations.saturating_sub(iterations);
-        if budget == 0 {
-            break;
-        }
-        let inner_tol = 0.25 * tol * scale;
-        // A precise solve starts from a fresh product, so that its stopping test is honest.
-        let it_sweep = solve_on_set(op, pair_sums, z, p, mask, coarse, inner_tol, rough, deflate, known && rough, budget, work);
-        iterations += it_sweep;
+    /// The coarse space of the current contact set (None: no deflation).
+    coarse: Option<CoarseSpace>,
+    w: &'a mut Work<Op::Scratch>,
+}
 
-        // Set update from the tracked C p; a set that looks settled is checked on a fresh one.
-        let mut changed = update_set(z, p, mask, gap, &work.displacement);
-        if !changed {
-            op.displacement(p, &mut work.displacement, &mut work.scratch);
-            changed = update_set(z, p, mask, gap, &work.displacement);
-        }
-        if !changed {
-            let res = residual(p, gap, scale);
-            if res <= tol {
-                return Ok((iterations, res));
-            }
-            known = true;
-            if !rough {
-                // A precise solve on a settled set missed tol. The coarse matrix is assembled from
-                // prefix sums whose rounding can cap the attainable accuracy: retry without it.
-                if !deflate {
-                    break;
+/// How one contact-set solve ([`Context::solve_on_set`]) runs.
+#[derive(Clone, Copy)]
+struct SetSolve {
+    /// Stop at max|gap| <= abs_tol (m) on the set.
+    abs_tol: f64,
+    /// An early sweep: stop after a fixed reduction too, with a smaller coarse space.
+    rough: bool,
+    /// Deflate with the coarse space.
+    deflate: bool,
+    /// `w.displacement` already holds C p.
+    displacement_known: bool,
+    max_iterations: usize,
+}
+
+impl<Op: Compliance> Context<'_, Op> {
+    /// Warm start (from `initial`, else a few bounded-CG steps), the sweeps, and the bounded CG
+    /// again if they do not settle.
+    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize) -> Outcome {
+        let n = self.z.len();
+        let target_sum = self.target_sum;
+        let mut gap = vec![0.0; n];
+        let (mut p, warm) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
+            // A neighbouring solution (the same profile under another modulus): its contact set is
+            // close to this one, so the sweeps start from it with its pressure scaled to this load.
+            Some(q) => {
+                let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
+                let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
+                for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
+                    *m = pi > 0.0;
                 }
-                deflate = false;
+                (p, 0)
             }
-            rough = false;
-            continue;
-        }
-        if !mask.iter().any(|&m| m) {
-            break;
-        }
-        // New trial set: keep the pressures of points that stay, start new points at zero.
-        leaving.clear();
-        for i in 0..n {
-            let next = if mask[i] { p[i].max(0.0) } else { 0.0 };
-            if next != p[i] {
-                leaving.push((i, next - p[i]));
-            }
-            p[i] = next;
-        }
-        let total: f64 = p.iter().sum();
-        if total > 0.0 {
-            let factor = target_sum / total;
-            p.iter_mut().for_each(|x| *x *= factor);
-            known = leaving.len() <= MAX_COLUMN_UPDATES;
-            if known {
-                for &(j, delta) in &leaving {
-                    op.add_column(j, delta, &mut work.displacement);
+            None => {
+                // A few bound-constrained CG steps from full contact shed most of the points that are
+                // not in contact far more cheaply than active-set sweeps would.
+                let warm_budget = warm_up_iterations(n).min(max_iterations);
+                let start = self.bounded_cg(vec![mean_strain; n], warm_budget);
+                if start.converged {
+                    return start;
                 }
-                work.displacement.iter_mut().for_each(|u| *u *= factor);
+                for i in 0..n {
+                    self.w.mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
+                }
+                (start.pressure, start.iterations)
             }
-        } else {
-            let count = mask.iter().filter(|&&m| m).count() as f64;
-            (0..n).filter(|&i| mask[i]).for_each(|i| p[i] = target_sum / count);
-            known = false;
+        };
+        let max_iterations = max_iterations - warm;
+        match self.sweeps(&mut p, &mut gap, max_iterations) {
+            Ok((iterations, res)) => Outcome { pressure: p, gap, iterations: iterations + warm, residual: res, converged: true },
+            Err(iterations) => {
+                let iterations = iterations + warm;
+                // The sweeps did not settle: continue from here with the bound-constrained CG.
+                for x in p.iter_mut() {
+                    *x = x.max(0.0);
+                }
+                let total: f64 = p.iter().sum();
+                p.iter_mut().for_each(|x| *x *= target_sum / total);
+                let budget = (max_iterations + warm).saturating_sub(iterations);
+                let fallback = self.bounded_cg(p, budget);
+                Outcome { iterations: iterations + fallback.iterations, ..fallback }
+            }
         }
     }
-    Err(iterations)
+
+    /// The active-set sweeps from the set in `w.mask`: Ok((iterations, residual)) when converged,
+    /// Err(iterations) when they did not settle.
+    fn sweeps(&mut self, p: &mut [f64], gap: &mut [f64], max_iterations: usize) -> std::result::Result<(usize, f64), usize> {
+        let n = self.z.len();
+        let mut iterations = 0usize;
+        let mut rough = true;
+        let mut deflate = true;
+        // Whether w.displacement holds C p for the current p (tracked, not a fresh product).
+        let mut known = false;
+        let mut leaving: Vec<(usize, f64)> = Vec::new();
+        for _sweep in 0..MAX_SWEEPS {
+            let budget = max_iterations.saturating_sub(iterations);
+            if budget == 0 {
+                break;
+            }
+            let abs_tol = 0.25 * self.tol * self.scale;
+            // A precise solve starts from a fresh product, so that its stopping test is honest.
+            let how = SetSolve { abs_tol, rough, deflate, displacement_known: known && rough, max_iterations: budget };
+            iterations += self.solve_on_set(p, how);
+
+            // Set update from the tracked C p; a set that looks settled is checked on a fresh one.
+            let (op, z, w) = (self.op, self.z, &mut *self.w);
+            let mut changed = update_set(z, p, &mut w.mask, gap, &w.displacement);
+            if !changed {
+                op.displacement(p, &mut w.displacement, &mut w.scratch);
+                changed = update_set(z, p, &mut w.mask, gap, &w.displacement);
+            }
+            if !changed {
+                let res = residual(p, gap, self.scale);
+                if res <= self.tol {
+                    return Ok((iterations, res));
+                }
+                known = true;
+                if !rough {
+                    // A precise solve on a settled set missed tol. The coarse matrix is assembled
+                    // from second prefix sums of the kernel (PairSums), differences of large
+                    // numbers whose rounding can cap the attainable accuracy: retry without it.
+                    if !deflate {
+                        break;
+                    }
+                    deflate = false;
+                }
+                rough = false;
+                continue;
+            }
+            if !w.mask.iter().any(|&m| m) {
+                break;
+            }
+            // New trial set: keep the pressures of points that stay, start new points at zero.
+            leaving.clear();
+            for (i, (pi, &m)) in p.iter_mut().zip(&w.mask).enumerate() {
+                let next = if m { pi.max(0.0) } else { 0.0 };
+                if next != *pi {
+                    leaving.push((i, next - *pi));
+                }
+                *pi = next;
+            }
+            let total: f64 = p.iter().sum();
+            if total > 0.0 {
+                let factor = self.target_sum / total;
+                p.iter_mut().for_each(|x| *x *= factor);
+                known = leaving.len() <= MAX_COLUMN_UPDATES;
+                if known {
+                    for &(j, delta) in &leaving {
+                        op.add_column(j, delta, &mut w.displacement);
+                    }
+                    w.displacement.iter_mut().for_each(|u| *u *= factor);
+                }
+            } else {
+                let count = w.mask.iter().filter(|&&m| m).count() as f64;
+                (0..n).filter(|&i| w.mask[i]).for_each(|i| p[i] = self.target_sum / count);
+                known = false;
+            }
+        }
+        Err(iterations)
+    }
+
+    /// The coarse space for the set in `w.mask`: the current one when it would be built again,
+    /// else a new one; None without deflation or with fewer than two runs.
+    fn coarse_space(&mut self, rough: bool, deflate: bool) -> Option<CoarseSpace> {
+        let current = self.coarse.take();
+        if !deflate {
+            return None;
+        }
+        let islands = runs(&self.w.mask);
+        if islands.len() < 2 {
+            return None;
+        }
+        let n = self.z.len();
+        let dim = coarse_dim(n, islands.len(), rough);
+        // The same set as the last sweep (a rough sweep that changed nothing, then the precise
+        // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
+        if let Some(current) = current.filter(|c| c.is_same(&islands, dim)) {
+            return Some(current);
+        }
+        // CoarseSpace::new relies on: `islands` being exactly the runs of the mask it is given
+        // (|A| is their total length, and when every run is kept their indicators sum to 1_A);
+        // the pair sums being those of this operator's kernel (ContactSolver::new builds both from
+        // one model), a symmetric one (it assembles one triangle of E); and, when it keeps only
+        // the largest runs, `displacement_of_set` being C 1_A for this same mask.
+        let w = &mut *self.w;
+        let displacement_of_set = if CoarseSpace::needs_displacement_of_set(islands.len(), dim, MAX_RUN_PAIRS) {
+            w.set_indicator.resize(n, 0.0);
+            w.set_displacement.resize(n, 0.0);
+            for (u, &m) in w.set_indicator.iter_mut().zip(&w.mask) {
+                *u = if m { 1.0 } else { 0.0 };
+            }
+            self.op.displacement(&w.set_indicator, &mut w.set_displacement, &mut w.scratch);
+            Some(&w.set_displacement[..])
+        } else {
+            None
+        };
+        CoarseSpace::new(self.pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
+    }
+
+    /// r = projected (z - C p) on the set: the gap the approach cannot close (C p fresh when
+    /// `fresh`, else as tracked in `w.displacement`).
+    fn set_residual(&mut self, p: &[f64], count: usize, fresh: bool) {
+        let w = &mut *self.w;
+        if fresh {
+            self.op.displacement(p, &mut w.displacement, &mut w.scratch);
+        }
+        for i in 0..p.len() {
+            w.residual[i] = if w.mask[i] { self.z[i] - w.displacement[i] } else { 0.0 };
+        }
+        project_zero_sum(&mut w.residual, &w.mask, count);
+    }
+
+    /// Deflated PCG on the fixed set `w.mask`: C_AA p_A + h = z_A with sum p_A unchanged. Stops
+    /// at max|gap| <= `how.abs_tol` on the set (or, when rough, after a fixed reduction). Returns
+    /// the iterations used; p may turn negative on the set (the outer sweep deals with that).
+    // `!(x > 0.0)` below is deliberate: it also stops on NaN. The update loop indexes six vectors in step.
+    #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+    fn solve_on_set(&mut self, p: &mut [f64], how: SetSolve) -> usize {
+        let count = self.w.mask.iter().filter(|&&m| m).count();
+        if count <= 1 {
+            // One element carries the whole load: nothing to solve.
+            return 0;
+        }
+        // `w.mask` stays the set `coarse` was built for until this returns: add_prolonged shifts
+        // exactly those points, and restrict's weights are run lengths over the set's size.
+        let coarse = self.coarse_space(how.rough, how.deflate);
+        self.set_residual(p, count, !how.displacement_known);
+        // A-DEF2 start: the coarse solve puts the right load on every island at once.
+        if let Some(coarse) = &coarse {
+            let w = &mut *self.w;
+            coarse.restrict(&w.residual, 0.0, &mut w.coarse_rhs);
+            coarse.solve(&mut w.coarse_rhs);
+            coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p);
+            self.set_residual(p, count, true);
+        }
+        let (op, w) = (self.op, &mut *self.w);
+        let start_norm = max_abs(&w.residual);
+        let stop = if how.rough { how.abs_tol.max(ROUGH_REDUCTION * start_norm) } else { how.abs_tol };
+
+        let mut rho_before = 0.0;
+        let mut iterations = 0;
+        while max_abs(&w.residual) > stop && iterations < how.max_iterations {
+            // y = M r on A, zero-sum.
+            op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            mask_and_project(&mut w.preconditioned, &w.mask, count);
+            // P^T y = y - Z E^-1 Z^T C y.
+            if let Some(coarse) = &coarse {
+                op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
+                // restrict reads C y on the coarse space's runs only (all inside A) and takes its
+                // sum over the whole set A as given: sum over the mask, not over all N points.
+                let total: f64 = (0..p.len()).filter(|&i| w.mask[i]).map(|i| w.applied[i]).sum();
+                coarse.restrict(&w.applied, total, &mut w.coarse_rhs);
+                coarse.solve(&mut w.coarse_rhs);
+                coarse.add_prolonged(&w.coarse_rhs, -1.0, &w.mask, &mut w.preconditioned);
+            }
+            let rho = dot(&w.residual, &w.preconditioned);
+            if !(rho > 0.0) {
+                break;
+            }
+            // Polak-Ribiere (flexible) beta: equal to Fletcher-Reeves in exact arithmetic, and robust
+            // when the coarse solve makes the preconditioner slightly inexact. `previous` is read
+            // only after this solve wrote it (iterations > 0).
+            let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
+            if iterations == 0 {
+                // Not beta * d: d holds the last solve's direction (`+ 0.0` as y + 0 * d would give).
+                for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
+                    *d = y + 0.0;
+                }
+            } else {
+                for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
+                    *d = y + beta * *d;
+                }
+            }
+            w.previous.copy_from_slice(&w.preconditioned);
+            // C d on all points: its projection on A updates r, all of it tracks C p.
+            op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            let mean = (0..p.len()).filter(|&i| w.mask[i]).map(|i| w.applied_direction[i]).sum::<f64>() / count as f64;
+            let curvature = dot(&w.direction, &w.applied_direction);
+            if !(curvature > 0.0) {
+                break;
+            }
+            let alpha = rho / curvature;
+            for i in 0..p.len() {
+                p[i] += alpha * w.direction[i];
+                w.displacement[i] += alpha * w.applied_direction[i];
+                if w.mask[i] {
+                    w.residual[i] -= alpha * (w.applied_direction[i] - mean);
+                }
+            }
+            rho_before = rho;
+            iterations += 1;
+        }
+        self.coarse = coarse;
+        iterations
+    }
+
+    /// Bound-constrained CG (Vollebregt 2014) with the FFT preconditioner from `p`: the free set is
+    /// {p > 0} U {p = 0 and gap < 0}; pressures crossing zero are truncated and the iteration
+    /// continues with a Polak-Ribiere direction instead of restarting.
+    // `!(x > 0.0)` below is deliberate: it also stops on NaN. The free-set loop indexes four vectors in step.
+    #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+    fn bounded_cg(&mut self, mut p: Vec<f64>, max_iterations: usize) -> Outcome {
+        let (op, z, w) = (self.op, self.z, &mut *self.w);
+        let n = z.len();
+        let mut gap = vec![0.0; n];
+        let mut free = vec![false; n];
+        let mut rho_before = 0.0;
+        let mut iterations = 0;
+        loop {
+            op.displacement(&p, &mut w.displacement, &mut w.scratch);
+            let (sum, count) = (0..n).filter(|&i| p[i] > 0.0).fold((0.0, 0usize), |(s, c), i| (s + w.displacement[i] - z[i], c + 1));
+            let approach = -sum / count as f64;
+            for i in 0..n {
+                gap[i] = w.displacement[i] + approach - z[i];
+            }
+            let res = residual(&p, &gap, self.scale);
+            if res <= self.tol || iterations >= max_iterations {
+                return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= self.tol };
+            }
+            let mut free_count = 0;
+            for i in 0..n {
+                free[i] = p[i] > 0.0 || gap[i] < 0.0;
+                free_count += free[i] as usize;
+                w.residual[i] = if free[i] { -gap[i] } else { 0.0 };
+            }
+            project_zero_sum(&mut w.residual, &free, free_count);
+            op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            mask_and_project(&mut w.preconditioned, &free, free_count);
+            let rho = dot(&w.residual, &w.preconditioned);
+            if !(rho > 0.0) {
+                return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
+            }
+            // `direction` and `previous` are read only after this call wrote them (iterations > 0).
+            let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
+            for i in 0..n {
+                let previous = if iterations == 0 { 0.0 } else { w.direction[i] };
+                w.direction[i] = if free[i] { w.preconditioned[i] + beta * previous } else { 0.0 };
+            }
+            project_zero_sum(&mut w.direction, &free, free_count);
+            w.previous.copy_from_slice(&w.preconditioned);
+            op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            let curvature = dot(&w.direction, &w.applied_direction);
+            if !(curvature > 0.0) {
+                return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
+            }
+            let alpha = dot(&w.residual, &w.direction) / curvature;
+            let mut clipped = false;
+            let mut total = 0.0;
+            for (pi, &di) in p.iter_mut().zip(&w.direction) {
+                *pi += alpha * di;
+                if *pi < 0.0 {
+                    *pi = 0.0;
+                    clipped = true;
+                }
+                total += *pi;
+            }
+            if clipped {
+                p.iter_mut().for_each(|pi| *pi *= self.target_sum / total);
+            }
+            rho_before = rho;
+            iterations += 1;
+        }
+    }
 }
 
 /// The gap for displacement `u` = C p, with the rigid approach that makes it zero-mean on `mask`,
@@ -277,203 +535,6 @@ fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64
         mask[i] = next;
     }
     changed
-}
-
-/// Deflated PCG on the fixed set `mask`: C_AA p_A + h = z_A with sum p_A unchanged. Stops at
-/// max|gap| <= `abs_tol` on the set (or, when `rough`, after a fixed reduction). Returns the
-/// iterations used; p may turn negative on the set (the outer sweep deals with that).
-#[allow(clippy::too_many_arguments)]
-fn solve_on_set<Op: Compliance>(
-    op: &Op,
-    pair_sums: &PairSums,
-    z: &[f64],
-    p: &mut [f64],
-    mask: &[bool],
-    cache: &mut Option<CoarseSpace>,
-    abs_tol: f64,
-    rough: bool,
-    deflate: bool,
-    displacement_known: bool,
-    max_iterations: usize,
-    w: &mut Work<Op::Scratch>,
-) -> usize {
-    let count = mask.iter().filter(|&&m| m).count();
-    if count <= 1 {
-        // One element carries the whole load: nothing to solve.
-        return 0;
-    }
-    let islands = if deflate { runs(mask) } else { Vec::new() };
-    if islands.len() >= 2 {
-        let n = mask.len();
-        let dim = coarse_dim(n, islands.len(), rough);
-        // The same set as the last sweep (a rough sweep that changed nothing, then the precise
-        // one): the same coarse space.
-        if !cache.as_ref().is_some_and(|c| c.is_same(&islands, dim)) {
-            let unit = if CoarseSpace::needs_displacement_of_set(islands.len(), dim, MAX_RUN_PAIRS) {
-                for (u, &m) in w.preconditioned.iter_mut().zip(mask) {
-                    *u = if m { 1.0 } else { 0.0 };
-                }
-                op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
-                Some(&w.applied[..])
-            } else {
-                None
-            };
-            *cache = CoarseSpace::new(pair_sums, islands, mask, unit, dim, MAX_RUN_PAIRS);
-        }
-    } else {
-        *cache = None;
-    }
-    let coarse = cache.as_ref();
-    // r = projected (z - C p) on A: the gap the approach cannot close (C p fresh, or as tracked).
-    let update_residual = |p: &[f64], w: &mut Work<Op::Scratch>, fresh: bool| {
-        if fresh {
-            op.displacement(p, &mut w.displacement, &mut w.scratch);
-        }
-        for i in 0..p.len() {
-            w.residual[i] = if mask[i] { z[i] - w.displacement[i] } else { 0.0 };
-        }
-        project_zero_sum(&mut w.residual, mask, count);
-    };
-    update_residual(p, w, !displacement_known);
-    // A-DEF2 start: the coarse solve puts the right load on every island at once.
-    if let Some(coarse) = coarse {
-        let mut q = std::mem::take(&mut w.coarse_rhs);
-        coarse.restrict(&w.residual, 0.0, &mut q);
-        coarse.solve(&mut q);
-        coarse.add_prolonged(&q, 1.0, mask, p);
-        w.coarse_rhs = q;
-        update_residual(p, w, true);
-    }
-    let start_norm = max_abs(&w.residual);
-    let stop = if rough { abs_tol.max(ROUGH_REDUCTION * start_norm) } else { abs_tol };
-
-    let mut rho_before = 0.0;
-    let mut iterations = 0;
-    while max_abs(&w.residual) > stop && iterations < max_iterations {
-        // y = M r on A, zero-sum.
-        op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
-        mask_and_project(&mut w.preconditioned, mask, count);
-        // P^T y = y - Z E^-1 Z^T C y.
-        if let Some(coarse) = coarse {
-            op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
-            let total: f64 = (0..p.len()).filter(|&i| mask[i]).map(|i| w.applied[i]).sum();
-            let mut q = std::mem::take(&mut w.coarse_rhs);
-            coarse.restrict(&w.applied, total, &mut q);
-            coarse.solve(&mut q);
-            coarse.add_prolonged(&q, -1.0, mask, &mut w.preconditioned);
-            w.coarse_rhs = q;
-        }
-        let rho = dot(&w.residual, &w.preconditioned);
-        if !(rho > 0.0) {
-            break;
-        }
-        // Polak-Ribiere (flexible) beta: equal to Fletcher-Reeves in exact arithmetic, and robust
-        // when the coarse solve makes the preconditioner slightly inexact.
-        let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-        if iterations == 0 {
-            // Not beta * d: d holds the last solve's direction (`+ 0.0` as y + 0 * d would give).
-            for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
-                *d = y + 0.0;
-            }
-        } else {
-            for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
-                *d = y + beta * *d;
-            }
-        }
-        w.previous.copy_from_slice(&w.preconditioned);
-        // C d on all points: its projection on A updates r, all of it tracks C p.
-        op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-        let mean = (0..p.len()).filter(|&i| mask[i]).map(|i| w.applied_direction[i]).sum::<f64>() / count as f64;
-        let curvature = dot(&w.direction, &w.applied_direction);
-        if !(curvature > 0.0) {
-            break;
-        }
-        let alpha = rho / curvature;
-        for i in 0..p.len() {
-            p[i] += alpha * w.direction[i];
-            w.displacement[i] += alpha * w.applied_direction[i];
-            if mask[i] {
-                w.residual[i] -= alpha * (w.applied_direction[i] - mean);
-            }
-        }
-        rho_before = rho;
-        iterations += 1;
-    }
-    iterations
-}
-
-/// Bound-constrained CG (Vollebregt 2014) with the FFT preconditioner: the free set is
-/// {p > 0} U {p = 0 and gap < 0}; pressures crossing zero are truncated and the iteration
-/// continues with a Polak-Ribiere direction instead of restarting.
-#[allow(clippy::too_many_arguments)]
-fn bounded_cg<Op: Compliance>(
-    op: &Op,
-    z: &[f64],
-    mut p: Vec<f64>,
-    target_sum: f64,
-    scale: f64,
-    tol: f64,
-    max_iterations: usize,
-    w: &mut Work<Op::Scratch>,
-) -> Outcome {
-    let n = z.len();
-    let mut gap = vec![0.0; n];
-    let mut free = vec![false; n];
-    let mut rho_before = 0.0;
-    let mut iterations = 0;
-    loop {
-        op.displacement(&p, &mut w.displacement, &mut w.scratch);
-        let (sum, count) = (0..n).filter(|&i| p[i] > 0.0).fold((0.0, 0usize), |(s, c), i| (s + w.displacement[i] - z[i], c + 1));
-        let approach = -sum / count as f64;
-        for i in 0..n {
-            gap[i] = w.displacement[i] + approach - z[i];
-        }
-        let res = residual(&p, &gap, scale);
-        if res <= tol || iterations >= max_iterations {
-            return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= tol };
-        }
-        let mut free_count = 0;
-        for i in 0..n {
-            free[i] = p[i] > 0.0 || gap[i] < 0.0;
-            free_count += free[i] as usize;
-            w.residual[i] = if free[i] { -gap[i] } else { 0.0 };
-        }
-        project_zero_sum(&mut w.residual, &free, free_count);
-        op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
-        mask_and_project(&mut w.preconditioned, &free, free_count);
-        let rho = dot(&w.residual, &w.preconditioned);
-        if !(rho > 0.0) {
-            return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
-        }
-        let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-        for i in 0..n {
-            let previous = if iterations == 0 { 0.0 } else { w.direction[i] };
-            w.direction[i] = if free[i] { w.preconditioned[i] + beta * previous } else { 0.0 };
-        }
-        project_zero_sum(&mut w.direction, &free, free_count);
-        w.previous.copy_from_slice(&w.preconditioned);
-        op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-        let curvature = dot(&w.direction, &w.applied_direction);
-        if !(curvature > 0.0) {
-            return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
-        }
-        let alpha = dot(&w.residual, &w.direction) / curvature;
-        let mut clipped = false;
-        let mut total = 0.0;
-        for (pi, &di) in p.iter_mut().zip(&w.direction) {
-            *pi += alpha * di;
-            if *pi < 0.0 {
-                *pi = 0.0;
-                clipped = true;
-            }
-            total += *pi;
-        }
-        if clipped {
-            p.iter_mut().for_each(|pi| *pi *= target_sum / total);
-        }
-        rho_before = rho;
-        iterations += 1;
-    }
 }
 
 fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {

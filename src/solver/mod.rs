@@ -262,6 +262,8 @@ impl ContactSolver {
         } else {
             Model::Finite(FiniteCompliance::new(n, dx))
         };
+        // The CG solver's coarse space takes its matrix from these sums and its products from the
+        // model's operator: both must come from the same kernel (cg::solve relies on it).
         let pair_sums = (options.method == Method::ConjugateGradient).then(|| match &model {
             Model::Periodic(op) => PairSums::new(n, |d| op.kernel_at(d)),
             Model::Finite(op) => PairSums::new(n, |d| op.kernel_at(d)),
@@ -347,7 +349,9 @@ impl ContactSolver {
             Method::ConjugateGradient => {
                 let pair_sums = self.pair_sums.as_ref().expect("built for the CG method");
                 let initial: Option<Vec<f64>> = initial_pressure.map(|q| q.iter().map(|&x| x / e_star).collect());
-                cg::solve(op, pair_sums, &z, strain, scale, self.options.tol, self.options.max_iterations, initial.as_deref(), work)
+                let problem =
+                    cg::Problem { z: &z, mean_strain: strain, scale, tol: self.options.tol, max_iterations: self.options.max_iterations };
+                cg::solve(op, pair_sums, &problem, initial.as_deref(), work)
             }
             Method::Direct => direct::solve(op, &z, strain, scale, self.options.tol)?,
         };
