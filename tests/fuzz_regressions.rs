@@ -6,8 +6,8 @@
 //! recomputed with a dense O(N^2) sum of the influence coefficients.
 //!
 //! A known bug, while open, is pinned as a test that asserts it is still there (the Rust analogue
-//! of a strict xfail) and listed in `check::known_issue`; when fixed, the test turns positive.
-//! F1 and F2 are fixed (the core refuses magnitudes it cannot carry).
+//! of a strict xfail); when fixed, the test turns positive. None is open: F1 and F2 are fixed (the
+//! core refuses magnitudes it cannot carry).
 //!
 //! To add a crash found by `cargo fuzz run <target>`: read its input with
 //! `ROADTEX_FUZZ_SHOW=1 cargo +nightly fuzz run -s none <target> fuzz/artifacts/<target>/<file>`, which
@@ -16,7 +16,7 @@
 #[path = "../fuzz/src/check.rs"]
 mod check;
 
-use check::{check_solution, known_issue, solve, solve_and_check, Problem};
+use check::{check_solution, solve, solve_and_check, Problem};
 use roadtex::kernel::{periodic_coefficients, periodic_spectrum};
 use roadtex::solver::{Method, SolverOptions};
 use roadtex::{ContactError, KernelKind};
@@ -35,7 +35,6 @@ fn problem(heights: Vec<f64>, dx: f64, youngs_modulus: f64, mean_pressure: f64, 
 
 /// The promise: an error, or a result that passes every check. Returns the solution, if any.
 fn must_hold(p: &Problem) -> Option<roadtex::ContactSolution> {
-    assert!(known_issue(p).is_none(), "this problem is in the reach of a known issue: {:?}", known_issue(p));
     match solve_and_check(p) {
         Ok(solution) => solution,
         Err(broken) => panic!("{broken}\nproblem: {p:?}"),
