@@ -1,18 +1,42 @@
-"""Shared fixtures: the real CAPTIF profiles from ../shared (never copied into the repository)."""
+"""Shared fixtures: the real CAPTIF profiles from ../shared (never copied into the repository), and
+``tests/python`` on ``sys.path`` so that tests can import the shared independent checker
+(``from independent import check_contact``) whatever pytest's import mode."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
 
+HERE = Path(__file__).resolve().parent
+if str(HERE) not in sys.path:
+    sys.path.insert(0, str(HERE))
+
 #: ../shared/data/captif-slp beside the repository (see the brief: real data lives outside the repo).
-CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
+CAPTIF_DIR = HERE.parents[2] / "shared" / "data" / "captif-slp"
+
+#: The three laser-profilometer files captif-slp publishes (CAPTIF, Aylesbury, 11 October 2021).
+CAPTIF_FILE_NAMES = (
+    "20211011_aylesbury_dec_station_0.dat",
+    "20211011_aylesbury_dec_station_1.dat",
+    "20211011_aylesbury_dec_station_10.dat",
+)
 
 
 @pytest.fixture(scope="session")
 def captif_dir() -> Path:
-    """The folder of the three CAPTIF laser-profilometer files; skips when ../shared is absent."""
-    if not CAPTIF_DIR.is_dir() or not list(CAPTIF_DIR.glob("*.dat")):
-        pytest.skip(f"real CAPTIF profiles not found at {CAPTIF_DIR} (the ../shared folder beside the repo)")
+    """The folder of the three CAPTIF laser-profilometer files; skips, saying why, when it is absent."""
+    if not CAPTIF_DIR.is_dir():
+        pytest.skip(f"real CAPTIF profiles not found: no folder {CAPTIF_DIR} "
+                    "(the data lives in ../shared/data/captif-slp beside the repository, never in it)")
+    missing = [name for name in CAPTIF_FILE_NAMES if not (CAPTIF_DIR / name).is_file()]
+    if missing:
+        pytest.skip(f"real CAPTIF profiles incomplete: {', '.join(missing)} missing from {CAPTIF_DIR}")
     return CAPTIF_DIR
+
+
+@pytest.fixture(scope="session", params=CAPTIF_FILE_NAMES, ids=lambda name: name)
+def captif_file(request: pytest.FixtureRequest, captif_dir: Path) -> Path:
+    """Each real CAPTIF file in turn (a test taking it runs once per file); skips as captif_dir does."""
+    return captif_dir / request.param

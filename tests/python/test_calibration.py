@@ -39,8 +39,9 @@ def sites() -> dict[str, np.ndarray]:
 
 
 def synthetic_noise(sites: dict[str, np.ndarray], youngs_modulus: float, seed: int = 2,
-                    scatter_db: float = SCATTER_DB) -> pl.DataFrame:
-    """Noise levels (dB) = offset + gain x enveloped texture level at E, per band, plus scatter."""
+                    scatter_db: float = SCATTER_DB, lines: dict[int, tuple[float, float]] | None = None) -> pl.DataFrame:
+    """Noise levels (dB) = offset + gain x enveloped texture level at E, per band, plus scatter.
+    ``lines``, when given, receives band -> (gain, offset)."""
     segments = np.concatenate(list(sites.values()))
     envelope = contact_many(segments, DX, youngs_modulus, MEAN_PRESSURE, tol=1e-8).envelope[:, 0, :]
     levels = spectra.band_levels(envelope, DX, periodic=True)
@@ -52,6 +53,8 @@ def synthetic_noise(sites: dict[str, np.ndarray], youngs_modulus: float, seed: i
         if not reported:
             continue
         gain, offset = rng.uniform(0.5, 1.5), rng.uniform(20.0, 50.0)
+        if lines is not None:
+            lines[int(band)] = (gain, offset)
         for row, site in enumerate(sites):
             rows.append(dict(site=site, band=band,
                              level_db=offset + gain * texture[row, column] + rng.normal(0.0, scatter_db)))
@@ -107,8 +110,33 @@ def test_tables_are_consistent_with_an_independent_computation(sites):
         r = np.corrcoef(texture["level_db"], measured["level_db"])[0, 1]
         assert row["correlation"] == pytest.approx(r, abs=1e-12)
         assert row["sites"] == len(sites)
-    means = result.correlations.group_by("youngs_modulus").agg(pl.col("correlation").mean()).sort("youngs_modulus")
-    np.testing.assert_allclose(result.scores["mean_correlation"], means["correlation"], rtol=1e-12)
+    # Each E's score summarises its bands' r: it lies within their range, over the bands with an r.
+    for row in result.scores.iter_rows(named=True):
+        r = result.correlations.filter(pl.col("youngs_modulus") == row["youngs_modulus"])["correlation"].to_numpy()
+        assert r.min() - 1e-12 <= row["mean_correlation"] <= r.max() + 1e-12
+        assert row["bands"] == np.isfinite(r).sum()
+
+
+def test_without_scatter_the_true_modulus_fits_every_band_exactly(sites):
+    """With no scatter the noise is, band by band, an exact straight line of the texture level at
+    the true E: there Pearson's r is 1 in every band, and so is their mean, and the regression's
+    slope and intercept are the gain and offset the noise was made with. Every other E scores
+    less than 1, and the bootstrap picks the true E."""
+    truth, lines = 2.5e6, {}
+    noise = synthetic_noise(sites, truth, scatter_db=0.0, lines=lines)
+    result = calibrate_modulus(sites, DX, noise, moduli=MODULI, n_bootstrap=100)
+    fit = result.correlations.filter(pl.col("youngs_modulus") == truth).sort("band")
+    bands = fit["band"].to_list()
+    assert bands == sorted(lines) and len(bands) >= 10
+    np.testing.assert_allclose(fit["correlation"], 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fit["r2"], 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fit["slope"], [lines[b][0] for b in bands], rtol=1e-9)
+    np.testing.assert_allclose(fit["intercept"], [lines[b][1] for b in bands], rtol=1e-9)
+    scores = dict(zip(result.scores["youngs_modulus"], result.scores["mean_correlation"]))
+    assert scores[truth] == pytest.approx(1.0, abs=1e-12)
+    assert all(score < 1.0 - 1e-6 for modulus, score in scores.items() if modulus != truth), scores
+    shares = dict(zip(result.scores["youngs_modulus"], result.scores["bootstrap_share"]))
+    assert result.best_modulus == truth and shares[truth] > 0.9
 
 
 def test_noise_by_frequency_and_as_an_array_give_the_same_answer(sites):
@@ -144,9 +172,14 @@ def test_working_in_blocks_changes_nothing(sites, monkeypatch):
 
 
 def test_default_grid_is_tenth_decades_from_1_to_10_mpa():
+    """The tenth-decade values 10^(k/10) MPa, k = 0 .. 10, to four significant figures, against a
+    table written out by hand (10^0.1 = 1.2589, 10^0.3 = 1.9953, 10^0.5 = sqrt 10 = 3.1623, ...),
+    not the series' own formula."""
+    tabulated = [1.0, 1.259, 1.585, 1.995, 2.512, 3.162, 3.981, 5.012, 6.310, 7.943, 10.0]
+    assert list(calibration.DEFAULT_MODULI) == pytest.approx([1e6 * v for v in tabulated], rel=1e-12)
     grid = np.array(calibration.DEFAULT_MODULI)
-    assert grid[0] == 1e6 and grid[-1] == 1e7 and grid.size == 11
-    np.testing.assert_allclose(np.diff(np.log10(grid)), 0.1, atol=2e-4)
+    # a geometric series is symmetric about its middle: E_k E_(10-k) = (1 MPa)(10 MPa)
+    np.testing.assert_allclose(grid * grid[::-1], 1e13, rtol=5e-4)
 
 
 def bad_call(sites, **overrides):

@@ -31,15 +31,45 @@ def test_valleys_are_bounded_by_von_meier_contacts(road):
     e = roadtex.von_meier(road, DX, cmp.SEED_D_STAR)
     starts, ends = table["start"].to_numpy(), table["end"].to_numpy()
     assert np.all(ends[:-1] <= starts[1:])
-    for a, b, depth in zip(starts, ends, table["depth"].to_numpy()):
+    deepest = np.rint(table["x_deepest"].to_numpy() / DX).astype(int)
+    for a, b, k, depth in zip(starts, ends, deepest, table["depth"].to_numpy()):
         assert e[a] == road[a] and e[b] == road[b]
         assert np.all(e[a + 1:b] > road[a + 1:b])
-        line = road[a] + (np.arange(a, b + 1) - a) / (b - a) * (road[b] - road[a])
-        assert depth == pytest.approx(np.max(line - road[a:b + 1]), rel=1e-12)
-        assert depth > 0
-    assert np.allclose(table["width"].to_numpy(), (ends - starts) * DX)
+        # The chord between the asperities lies between their heights, so the depth below it is
+        # bracketed by the valley floor's drop below the lower and the higher asperity.
+        floor = road[a:b + 1].min()
+        assert min(road[a], road[b]) - floor <= depth * (1 + 1e-12)
+        assert depth <= (max(road[a], road[b]) - floor) * (1 + 1e-12)
+        assert a < k < b and depth > 0
+    assert np.allclose(table["width"].to_numpy(), table["x_end"].to_numpy() - table["x_start"].to_numpy())
     deep = cmp.valleys(road, DX, min_depth=2e-5)
     assert 0 < deep.height < table.height and deep["depth"].min() >= 2e-5
+
+
+def test_valley_depths_widths_and_bottoms_of_v_valleys_are_exact():
+    """A row of V-shaped valleys between sharp peaks at height 0, each steep enough that the
+    envelope's parabola over it (sag d* (w / 2)^2, slope d* w at the ends) clears its flanks, i.e.
+    deeper than 2 d* (w / 2)^2, so that the envelope rests on the peaks: the valleys are the Vs, their width the
+    distance between peaks, their deepest point the V's bottom and their depth the V's, exactly. The
+    same row on a 3 % grade gives the same table: a straight line added to the profile changes
+    neither the envelope's curvature nor the depth below the chord."""
+    dx = 1e-4
+    halves = [15, 20, 25, 10, 20]                      # flank lengths (samples)
+    depths = [0.5e-3, 1.0e-3, 2.0e-3, 1.5e-3, 0.8e-3]  # m
+    z = [0.0]
+    for half, depth in zip(halves, depths):
+        assert depth > 2 * cmp.SEED_D_STAR * (half * dx) ** 2
+        j = np.arange(1, 2 * half + 1)
+        z.extend(-depth * (1 - np.abs(j - half) / half))
+    z = np.array(z)
+    peaks = np.concatenate([[0], np.cumsum(2 * np.array(halves))])
+    for grade in (0.0, 0.03):
+        table = cmp.valleys(z + grade * dx * np.arange(z.size), dx)
+        assert table["start"].to_list() == peaks[:-1].tolist() and table["end"].to_list() == peaks[1:].tolist()
+        np.testing.assert_allclose(table["width"], 2 * np.array(halves) * dx, rtol=1e-12)
+        np.testing.assert_allclose(table["x_deepest"], (peaks[:-1] + np.array(halves)) * dx, rtol=1e-12)
+        np.testing.assert_allclose(table["depth"], depths, rtol=1e-9)
+    assert cmp.valleys(z, dx, min_depth=1.2e-3)["depth"].to_list() == pytest.approx([2.0e-3, 1.5e-3], rel=1e-9)
 
 
 def test_penetration_limits():

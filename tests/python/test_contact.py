@@ -1,20 +1,22 @@
 """Accuracy and robustness of the periodic contact solver (roadtex.contact, roadtex.contact_many).
 
 Every solve in this module goes through :func:`solve` (or :func:`solve_many`), which checks the
-invariants of the discrete contact problem on the result before any test-specific assertion:
-load balance, p >= 0, envelope >= heights, envelope == heights on contact, and that the envelope
-is the elastic surface produced by the returned pressure (recomputed here with numpy).
+invariants of the discrete contact problem on the result before any test-specific assertion, with
+the shared independent checker :func:`independent.check_contact`: load balance, p >= 0, envelope
+>= heights, envelope == heights on contact, and that the envelope is the elastic surface produced
+by the returned pressure (recomputed with numpy from the real-space influence coefficients).
 """
 
 from __future__ import annotations
 
-import math
+import dataclasses
 
 import numpy as np
 import pytest
 
+import independent
 import roadtex
-from roadtex import _core
+from independent import check_contact
 from roadtex import reference as ref
 from roadtex.profiles.synthetic import self_affine_profile
 
@@ -33,80 +35,27 @@ WAVE_AMPLITUDE = 1e-4  # m
 # helpers
 
 
-def height_scale(result: roadtex.ContactResult) -> float:
-    """The residual's height scale: peak-to-valley, or P L / E* for a flat profile."""
-    z = result.heights
-    load_scale = result.mean_pressure / result.plane_strain_modulus * result.dx * z.size
-    span = float(np.ptp(z))
-    return span if span > 1e-9 * load_scale else load_scale
-
-
-def kernel_multipliers(n: int, dx: float, kernel: str) -> np.ndarray:
-    """Eigenvalues (m per unit p / E*) of the periodic kernel, computed here independently of the
-    Rust FFT path: from the real-space Clausen coefficients (element) or from 2 / |k| (spectral)."""
-    if kernel == "element":
-        column = _core.influence_coefficients(n, dx, True)
-        return np.fft.rfft(column).real
-    length = n * dx
-    q = np.arange(n // 2 + 1, dtype=np.float64)
-    lam = np.zeros_like(q)
-    lam[1:] = length / (math.pi * q[1:])  # 2 / k with k = 2 pi q / L
-    return lam
-
-
-def check_elastic_surface(result: roadtex.ContactResult, kernel: str, tol: float) -> None:
-    """The envelope is C p / E* + h: on contact it meets the profile, off contact it equals the
-    elastic surface and does not penetrate (all within the solver's tolerance)."""
-    z, p = result.heights, result.pressure
-    n = z.size
-    u = np.fft.irfft(np.fft.rfft(p) * kernel_multipliers(n, result.dx, kernel), n) / result.plane_strain_modulus
-    on = p > 0.0
-    approach = np.mean((z - u)[on])
-    surface = u + approach
-    scale = height_scale(result)
-    # tol from the solver's own residual, plus rounding of two different FFT evaluations of u.
-    slack = 3.0 * tol * scale + 1e-12 * max(float(np.ptp(u)), scale)
-    assert np.max(np.abs(surface - z)[on]) <= slack, "rubber surface leaves the profile on contact"
-    if not on.all():
-        assert np.min((surface - z)[~on]) >= -slack, "rubber surface penetrates the profile"
-        assert np.max(np.abs(surface - result.envelope)[~on]) <= slack, "envelope is not the elastic surface"
-
-
-def check_invariants(result: roadtex.ContactResult, *, kernel: str = "element", tol: float | None = None) -> None:
-    """Invariants every converged solve must satisfy, whatever the profile."""
-    z, p, s = result.heights, result.pressure, result.envelope
-    assert p.shape == z.shape and s.shape == z.shape
-    assert result.converged
-    assert np.isfinite(result.residual) and result.residual >= 0.0
-    if tol is not None:
-        assert result.residual <= tol
-    assert np.all(np.isfinite(p)) and np.all(np.isfinite(s))
-    # load control: mean(p) = P
-    assert abs(p.mean() / result.mean_pressure - 1.0) <= 1e-12, f"mean(p)/P - 1 = {p.mean() / result.mean_pressure - 1:.3e}"
-    # p >= 0
-    assert p.min() >= 0.0
-    assert np.any(p > 0.0)
-    # envelope >= heights (to rounding), and == heights where in contact
-    assert np.all(s - z >= -1e-12 * np.ptp(z))
-    on = p > 0.0
-    assert np.array_equal(s[on], z[on])
-    if tol is not None:
-        check_elastic_surface(result, kernel, tol)
+def check(result: roadtex.ContactResult, kwargs: dict) -> None:
+    """The shared independent check (:func:`independent.check_contact`) of a solve made with
+    ``kwargs``: it must have converged to its tol, with mean(p) = P to 1e-12."""
+    method = kwargs.get("method", "cg")
+    check_contact(result, periodic=kwargs.get("periodic", True), kernel=kwargs.get("kernel", "element"),
+                  method=method, tol=kwargs.get("tol", 1e-10), max_iterations=kwargs.get("max_iterations"),
+                  load_balance=1e-12, require_converged=True)
 
 
 def solve(heights, dx, youngs_modulus, mean_pressure, **kwargs) -> roadtex.ContactResult:
-    """roadtex.contact followed by :func:`check_invariants`."""
+    """roadtex.contact followed by the independent check."""
     result = roadtex.contact(heights, dx, youngs_modulus, mean_pressure, **kwargs)
-    tol = kwargs.get("tol", 1e-10) if kwargs.get("method", "cg") == "cg" else 1e-10
-    check_invariants(result, kernel=kwargs.get("kernel", "element"), tol=tol)
+    check(result, kwargs)
     return result
 
 
 def solve_many(segments, dx, moduli, mean_pressure, **kwargs) -> roadtex.ContactBatch:
-    """roadtex.contact_many followed by :func:`check_invariants` on every problem."""
+    """roadtex.contact_many followed by the independent check of every problem."""
     batch = roadtex.contact_many(segments, dx, moduli, mean_pressure, **kwargs)
     for result in batch:
-        check_invariants(result, kernel=kwargs.get("kernel", "element"), tol=kwargs.get("tol", 1e-10))
+        check(result, kwargs)
     return batch
 
 
@@ -129,6 +78,59 @@ def westergaard_errors(n: int, ratio: float, *, kernel: str = "element", poisson
     half_width = np.count_nonzero(result.pressure > 0.0) * dx / 2.0
     exact_half_width = ref.westergaard_contact_half_width(WAVE_AMPLITUDE, WAVE_LENGTH, e_star, mean_pressure)
     return l1, abs(half_width - exact_half_width) / dx, result
+
+
+# --------------------------------------------------------------------------------------------
+# the independent checker itself
+
+
+@pytest.mark.parametrize("periodic, kernel", [(True, "element"), (True, "spectral"), (False, "element")])
+def test_checker_dense_and_fft_products_agree(periodic, kernel):
+    """The checker applies C densely up to DENSE_LIMIT and by numpy's FFT beyond: both are the
+    same matrix, so on one pressure they agree (to the checker's own rounding bound)."""
+    n, dx, e_star = 700, 1e-4, TREAD_E / 0.75
+    pressure = TYRE_P * np.random.default_rng(1).exponential(size=n)
+    dense, bound = independent.elastic_displacement(pressure, dx, e_star, periodic=periodic, kernel=kernel)
+    column = (independent.influence_column(n, dx, kernel) if periodic
+              else independent.influence_matrix(n, dx, periodic=False)[:, 0])
+    strain = pressure / e_star
+    if periodic:
+        fft = np.fft.irfft(np.fft.rfft(strain) * np.fft.rfft(column).real, n)
+    else:
+        extended = np.concatenate([column, [0.0], column[:0:-1]])
+        fft = np.fft.irfft(np.fft.rfft(strain, 2 * n) * np.fft.rfft(extended), 2 * n)[:n]
+    assert 0 < np.max(np.abs(dense - fft)) <= bound or np.array_equal(dense, fft)
+    assert np.ptp(dense) > 1e3 * bound  # the pressure does move the surface
+
+
+def test_checker_rejects_wrong_answers():
+    """The checker has teeth: a solved rough road passes, and each way of spoiling it fails: load
+    off balance, pressure moved between contact elements (load kept), the envelope lifted off the
+    elastic surface, or a gap left open on the contact set."""
+    heights, dx = rough(512, seed=3)
+    good = solve(heights, dx, TREAD_E, TYRE_P, tol=1e-12)
+    on = np.flatnonzero(good.pressure > 0)
+    off = np.flatnonzero(good.pressure == 0)
+    assert on.size > 4 and off.size > 4
+    unbalanced = good.pressure.copy()
+    unbalanced[on[0]] *= 1.01
+    moved = good.pressure.copy()
+    shift = 0.05 * min(moved[on[0]], moved[on[-1]])
+    moved[on[0]] -= shift
+    moved[on[-1]] += shift
+    lifted = good.envelope.copy()
+    lifted[off[len(off) // 2]] += 1e-3 * np.ptp(heights)
+    for spoiled, complaint in ((dataclasses.replace(good, pressure=unbalanced), "mean"),
+                               (dataclasses.replace(good, pressure=moved), "leaves the profile on contact"),
+                               (dataclasses.replace(good, envelope=lifted), "envelope off the elastic surface")):
+        with pytest.raises(AssertionError, match=complaint):
+            check_contact(spoiled, tol=1e-12, load_balance=1e-12, require_converged=True)
+    # the same pressure on a profile with one contact element lowered: a gap opens on contact
+    dented = heights.copy()
+    dented[on[len(on) // 2]] -= 1e-3 * np.ptp(heights)
+    envelope = np.where(good.pressure > 0, dented, good.envelope)
+    with pytest.raises(AssertionError, match="leaves the profile on contact"):
+        check_contact(dataclasses.replace(good, heights=dented, envelope=envelope), tol=1e-12, require_converged=True)
 
 
 # --------------------------------------------------------------------------------------------

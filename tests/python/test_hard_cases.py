@@ -1,6 +1,6 @@
 """Numerical hard cases of the contact model, each with its expected behaviour stated and tested.
 
-Every converged result here also passes :func:`test_properties.check_contact`, the independent
+Every converged result here also passes :func:`independent.check_contact`, the shared independent
 check of the contact conditions (elastic surface recomputed with numpy from the influence
 coefficients).
 """
@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 
 import roadtex
-from roadtex import _core
+from independent import check_contact, kernel_multipliers
 from roadtex.errors import ImplausibleTextureWarning, RoadtexWarning
 from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.profiles.plausibility import PLAUSIBLE_MEDIAN_SLOPE, PLAUSIBLE_PEAK_TO_VALLEY, PLAUSIBLE_RMS
 from roadtex.profiles.synthetic import self_affine_profile
-from test_properties import check_contact
 
 E = 2.5e6  # Pa, tread rubber
 P = 2e5  # Pa, tyre inflation pressure
@@ -209,7 +208,7 @@ def full_contact_pressure(z: np.ndarray, dx: float, e_star: float, mean_pressure
     """p = P + E* C^-1 (z - mean z): the pressure that makes the rubber follow the profile
     everywhere (periodic element kernel), computed with numpy from the real-space influence
     coefficients. For a cosine it is Westergaard's full-contact solution P + p* cos(2 pi x / L)."""
-    multipliers = np.fft.rfft(_core.influence_coefficients(z.size, dx, True)).real
+    multipliers = kernel_multipliers(z.size, dx, "element")
     spectrum = np.fft.rfft(z - z.mean())
     spectrum[1:] /= multipliers[1:]
     spectrum[0] = 0.0

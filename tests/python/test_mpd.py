@@ -13,10 +13,6 @@ import pytest
 from roadtex.profiles import Profile, mpd, read_profile
 
 REPO = Path(__file__).resolve().parents[2]
-CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
-CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []
-needs_captif = pytest.mark.skipif(
-    not CAPTIF_FILES, reason=f"real CAPTIF profiles not found in {CAPTIF_DIR} (../shared beside the repo)")
 PEER_VENV = REPO / ".venv-peers"
 
 DX = 0.5e-3
@@ -62,12 +58,27 @@ def test_mpd_of_a_plateau_with_narrow_pores_is_depth_times_pore_share():
 
 
 def test_slope_suppression_removes_a_linear_trend():
+    """MSD is blind to a straight line added to the profile (ISO 13473-1 removes each segment's
+    least-squares line): the tilted cosine gives the untilted one's peaks and mean, segment by
+    segment. Unsuppressed, a ramp s x would add s L / 4 to every segment's MSD (half-segment peaks
+    s L / 2 and s L against a mean of s L / 2): 1.25 mm here, against the 1e-9 the MPD is held to."""
+    slope = 0.05
     base = cosine(1e-3)
-    tilted = Profile.from_heights(base.heights + 0.05 * base.positions, DX)
-    assert mpd(tilted, lowpass_wavelength=None).mpd == pytest.approx(sampled_crest(1e-3, 10e-3), rel=1e-9)
-    first = tilted.heights[:200]
-    unsuppressed = 0.5 * (first[:100].max() + first[100:].max()) - first.mean()
-    assert unsuppressed > 1.5e-3   # without suppression the slope would count
+    tilted = Profile.from_heights(base.heights + slope * base.positions, DX, start=0.5 * DX)
+    # trim_plates=False: the grade lifts the last 200 mm more than 20 mm above the median height,
+    # which the plate detector takes for a CAPTIF reference plate and cuts.
+    result = mpd(tilted, lowpass_wavelength=None, trim_plates=False)
+    assert result.mpd == pytest.approx(sampled_crest(1e-3, 10e-3), rel=1e-9)
+    level = mpd(base, lowpass_wavelength=None, trim_plates=False).segments
+    assert len(result.segments) == len(level) == 10
+    for column in ("peak_first_half", "peak_second_half", "mean_level"):
+        np.testing.assert_allclose(result.segments[column], level[column], rtol=0, atol=1e-12, err_msg=column)
+    # The tilt did reach the segments: every 100 mm of the profile they were cut from still rises
+    # at s (least-squares fit by numpy; the cosine's own fit is 0 by symmetry).
+    x, z = result.profile.positions, result.profile.heights
+    for k in range(len(result.segments)):
+        inside = (x >= 0.1 * k) & (x < 0.1 * (k + 1))
+        assert np.polyfit(x[inside], z[inside], 1)[0] == pytest.approx(slope, rel=1e-6)
 
 
 def test_highpass_slope_suppression_also_removes_long_waves():
@@ -83,17 +94,38 @@ def test_etd_is_two_tenths_of_a_millimetre_plus_eight_tenths_of_mpd():
     assert result.etd == pytest.approx(0.2e-3 + 0.8 * sampled_crest(0.8e-3, 10e-3), rel=1e-9)
 
 
+def triangle(amplitude: float, n: int = 2000, wavelength: float = 10e-3) -> np.ndarray:
+    """A triangle wave sampled at (k + 1/2) dx, crests at multiples of the wavelength: each 50 mm
+    half segment holds whole periods, the highest sample sits dx/2 below a crest (amplitude
+    (1 - 2 dx / wavelength)), the mean is 0 and every segment is mirror-symmetric (slope 0). Between
+    crest and trough it is straight, so linear interpolation over a drop-out there is exact."""
+    phase = np.mod(DX * (np.arange(n) + 0.5), wavelength) / wavelength
+    return amplitude * (1 - 4 * np.minimum(phase, 1 - phase))
+
+
 def test_segments_with_too_many_dropouts_are_invalid_and_left_out():
-    base = cosine(1e-3).heights.copy()
-    base[200:200 + 30] = np.nan            # 15 % of segment 1
-    base[400:400 + 10] = np.nan            # 5 % of segment 2: still valid
-    base[650:800] = 2e-3 * np.cos(np.arange(150))   # segment 3 disturbed but complete
-    result = mpd(Profile.from_heights(base, DX), lowpass_wavelength=None, spike_alpha=None)
+    """MPD is the mean MSD of the valid segments, in closed form: 8 segments of the triangle wave
+    (MSD 0.9 A, one of them with 5 % drop-outs inside straight flanks, filled exactly), one at
+    three times the amplitude (2.7 A): (8 x 0.9 + 2.7) / 9 A = 1.1 A. The segment with 15 %
+    drop-outs is invalid, and its remaining readings, five times the amplitude, must not count."""
+    amplitude = 1e-3
+    z = triangle(amplitude)
+    z[200:200 + 30] = np.nan               # 15 % of segment 1 ...
+    z[230:400] *= 5                        # ... whose remaining readings would raise the MPD
+    z[401:406] = z[421:426] = np.nan       # 5 % of segment 2, inside falling flanks: still valid
+    z[600:800] *= 3                        # segment 3 disturbed but complete
+    result = mpd(Profile.from_heights(z, DX, start=0.5 * DX), lowpass_wavelength=None, spike_alpha=None)
     table = result.segments
-    assert table["valid"].to_list()[:4] == [True, False, True, True]
+    assert table["valid"].to_list() == [True, False] + [True] * 8
     assert table["dropout_fraction"][1] == pytest.approx(0.15)
-    valid = table.filter(table["valid"])["msd"].to_numpy()
-    assert result.mpd == pytest.approx(valid.mean())
+    assert table["dropout_fraction"][2] == pytest.approx(0.05)
+    crest = amplitude * (1 - 2 * DX / 10e-3)
+    expected_msd = np.full(10, crest)
+    expected_msd[3] = 3 * crest
+    valid = table["valid"].to_numpy()
+    np.testing.assert_allclose(result.msd[valid], expected_msd[valid], rtol=1e-9)
+    assert result.msd[1] > 4 * crest       # so counting segment 1 would move the MPD by a third
+    assert result.mpd == pytest.approx(1.1 * amplitude, rel=1e-9)
     assert result.valid_segments == 9
 
 
@@ -161,25 +193,23 @@ PUBLISHED_PEER_MPD_MM = {
 }
 
 
-@needs_captif
-@pytest.mark.parametrize("path", CAPTIF_FILES, ids=lambda p: p.name)
-def test_real_chip_seals_match_the_peers_published_mpd_within_2_percent(path):
-    result = mpd(read_profile(path), spike_alpha=6)
-    expected = PUBLISHED_PEER_MPD_MM[path.name] * 1e-3
+def test_real_chip_seals_match_the_peers_published_mpd_within_2_percent(captif_file):
+    result = mpd(read_profile(captif_file), spike_alpha=6)
+    expected = PUBLISHED_PEER_MPD_MM[captif_file.name] * 1e-3
     assert abs(result.mpd / expected - 1) < 0.02
     assert result.is_valid and len(result.segments) == 18
 
 
-@needs_captif
 @pytest.mark.skipif(not (PEER_VENV / "bin" / "python").exists(),
                     reason="the captif-slp peer needs its own venv: create it with "
                            "'bash scripts/peer-captif-slp.sh install' (about a minute; it pins numpy < 2)")
-def test_real_chip_seals_match_captif_slp_run_live_within_2_percent():
+def test_real_chip_seals_match_captif_slp_run_live_within_2_percent(captif_dir):
+    files = sorted(captif_dir.glob("*.dat"))
     out = subprocess.run(["bash", str(REPO / "scripts" / "peer-captif-slp.sh"), "mpd", "--alpha", "6",
-                          *map(str, CAPTIF_FILES)], capture_output=True, text=True, timeout=300, check=True)
+                          *map(str, files)], capture_output=True, text=True, timeout=300, check=True)
     peer = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
-    assert len(peer) == len(CAPTIF_FILES)
-    for path, theirs in zip(CAPTIF_FILES, peer):
+    assert len(peer) == len(files)
+    for path, theirs in zip(files, peer):
         ours = mpd(read_profile(path), spike_alpha=6)
         assert abs(ours.mpd / (theirs["mpd_mm"] * 1e-3) - 1) < 0.02, path.name
         assert ours.valid_segments == theirs["valid_segments"], path.name

@@ -13,11 +13,6 @@ from hypothesis import strategies as st
 
 from roadtex.profiles import Profile, read_profile, write_profile
 
-CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
-CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []
-needs_captif = pytest.mark.skipif(
-    not CAPTIF_FILES, reason=f"real CAPTIF profiles not found in {CAPTIF_DIR} (../shared beside the repo)")
-
 
 def wavy(n: int = 2000, dx: float = 0.5e-3, amplitude: float = 1e-3, wavelength: float = 10e-3) -> Profile:
     x = dx * np.arange(n)
@@ -271,10 +266,8 @@ def test_segments_refuse_what_they_cannot_cut():
 # --------------------------------------------------------------------------------------------------
 # reading CAPTIF files
 
-@needs_captif
-@pytest.mark.parametrize("path", CAPTIF_FILES, ids=lambda p: p.name)
-def test_real_captif_files_read_in_metres_with_their_metadata(path):
-    p = read_profile(path)
+def test_real_captif_files_read_in_metres_with_their_metadata(captif_file):
+    p = read_profile(captif_file)
     assert p.metadata["format"] == "captif"
     assert p.metadata["site"] == "CAPTIF" and p.metadata["wheel_path"] == "Left"
     assert p.metadata["date"] == "2021-10-11" and p.metadata["direction"] == "increasing"
@@ -319,9 +312,8 @@ def test_truncated_captif_file_is_refused(tmp_path, cut):
         read_profile(path)
 
 
-@needs_captif
-def test_real_captif_file_cut_in_the_middle_of_a_row_is_refused(tmp_path):
-    data = CAPTIF_FILES[0].read_bytes()
+def test_real_captif_file_cut_in_the_middle_of_a_row_is_refused(tmp_path, captif_dir):
+    data = sorted(captif_dir.glob("*.dat"))[0].read_bytes()
     cut = data[: data.index(b"\t", len(data) // 2) + 1]   # ends right after a distance's tab
     path = tmp_path / "cut.dat"
     path.write_bytes(cut)

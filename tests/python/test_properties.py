@@ -4,10 +4,11 @@ The promise under test, for every call: it raises a clear ``ValueError``, or it 
 that is right, or it says honestly that it is not (``converged=False``). Nothing else: no crash,
 no hang, no NaN, no wrong answer flagged converged.
 
-A returned contact result is checked independently of the solver (:func:`check_contact`): the
-elastic surface is recomputed here with numpy's FFT from the real-space influence coefficients
-(``roadtex._core.influence_coefficients``), not with the Rust FFT path, and the contact
-conditions are checked on it directly.
+A returned contact result is checked independently of the solver by the shared checker
+:func:`independent.check_contact` (tests/python/independent.py): the elastic surface is recomputed
+with numpy from the real-space influence coefficients (``roadtex._core.influence_coefficients``),
+as a dense matrix product or numpy's FFT, never the Rust FFT path, and the contact conditions are
+checked on it directly.
 
 Budget: a few hundred examples in all, about a minute on 2 cores. The examples are derandomized
 (same inputs every run, so CI is reproducible). ``ROADTEX_HYPOTHESIS=thorough`` runs 20 times
@@ -18,7 +19,6 @@ more, with fresh random inputs, for a local hunt:
 
 from __future__ import annotations
 
-import math
 import os
 import re
 
@@ -28,6 +28,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import roadtex
+from independent import LOAD_BALANCE, check_contact
 from roadtex import _core
 from roadtex.models.clapp import clapp
 from roadtex.profiles import Profile, read_profile, write_profile
@@ -47,117 +48,6 @@ def budget(examples: int) -> settings:
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning")
-
-#: Tolerance of the load balance mean(p) = P (it is exact by construction, up to rounding).
-LOAD_BALANCE = 1e-11
-#: The dense direct solve ignores ``tol``; when it reports convergence its residual is this small.
-DIRECT_RESIDUAL = 1e-9
-
-
-# --------------------------------------------------------------------------------------------
-# the independent check
-
-
-def height_scale(heights: np.ndarray, mean_pressure: float, e_star: float, dx: float) -> float:
-    """The residual's reference height: peak-to-valley, or P L / E* for a (nearly) flat profile."""
-    z = heights - heights.max()
-    load_scale = mean_pressure / e_star * dx * z.size
-    span = float(z.max() - z.min())
-    return span if span > 1e-9 * load_scale else load_scale
-
-
-def elastic_displacement(pressure: np.ndarray, dx: float, e_star: float, *, periodic: bool,
-                         kernel: str) -> tuple[np.ndarray, float]:
-    """u = C p / E* (m) with numpy's FFT, and a bound on its rounding error (m).
-
-    Periodic: the circulant of the real-space Clausen coefficients (element kernel) or 2 / |k|
-    (spectral kernel). Finite: the Toeplitz matrix of the finite coefficients, by a zero-padded
-    circular convolution of size 2N.
-    """
-    n = pressure.size
-    strain = pressure / e_star  # first, so that extreme E and P neither under- nor overflow
-    if periodic:
-        if kernel == "element":
-            column = _core.influence_coefficients(n, dx, True)
-            multipliers = np.fft.rfft(column).real
-        else:
-            q = np.arange(n // 2 + 1, dtype=np.float64)
-            multipliers = np.zeros_like(q)
-            multipliers[1:] = n * dx / (math.pi * q[1:])
-            column = np.fft.irfft(multipliers, n)
-        u = np.fft.irfft(np.fft.rfft(strain) * multipliers, n)
-    else:
-        column = _core.influence_coefficients(n, dx, False)
-        extended = np.concatenate([column, [0.0], column[:0:-1]])
-        u = np.fft.irfft(np.fft.rfft(strain, 2 * n) * np.fft.rfft(extended), 2 * n)[:n]
-    # Every u_i is a sum of N terms each at most max|C| p_j / E*: rounding is a small multiple of
-    # eps log N times that sum, for the solver's FFTs as for these.
-    bound = 1e-12 * float(np.max(np.abs(column))) * float(np.sum(strain))
-    return u, bound
-
-
-def check_contact(result: roadtex.ContactResult, *, periodic: bool = True, kernel: str = "element",
-                  method: str = "cg", tol: float = 1e-10, max_iterations: int | None = None,
-                  beyond_numpy: bool = False, load_balance: float = LOAD_BALANCE) -> None:
-    """The contract of a returned contact result (see the module docstring).
-
-    Always: finite values, p >= 0, mean(p) = P, envelope >= heights and == heights where p > 0,
-    ``converged`` consistent with ``residual`` and ``tol``. When converged: u + h (u recomputed
-    independently, h one rigid approach) meets the profile on the contact set and stays above it
-    off it, within twice the tolerance plus rounding, and the envelope is that surface.
-
-    ``beyond_numpy``: magnitudes so extreme that this numpy recomputation itself may overflow;
-    the surface is then checked only where it could be computed.
-    """
-    z, p, s = result.heights, result.pressure, result.envelope
-    n = z.size
-    assert p.shape == (n,) and s.shape == (n,)
-    assert np.all(np.isfinite(p)), "pressure has NaN or inf"
-    assert np.all(np.isfinite(s)), "envelope has NaN or inf"
-    assert math.isfinite(result.residual) and result.residual >= 0.0, f"residual {result.residual}"
-    assert p.min() >= 0.0, f"negative pressure {p.min()}"
-    balance = p.mean() / result.mean_pressure - 1.0
-    assert abs(balance) <= load_balance, f"mean(p)/P - 1 = {balance:.3e}"
-    assert np.all(s >= z), "envelope below the profile"
-    assert np.array_equal(s[p > 0], z[p > 0]), "envelope leaves the profile where p > 0"
-    if max_iterations is not None and method == "cg":  # the direct solve counts sweeps, uncapped
-        assert result.iterations <= max_iterations
-    if method == "cg":
-        assert result.converged == (result.residual <= tol), (
-            f"converged={result.converged} but residual {result.residual:.3e} vs tol {tol:g}")
-    if not result.converged:
-        return
-    e_star = result.plane_strain_modulus
-    top = z.max()
-    zr = z - top
-    with np.errstate(all="ignore" if beyond_numpy else "warn"):
-        u, rounding = elastic_displacement(p, result.dx, e_star, periodic=periodic, kernel=kernel)
-        scale = height_scale(z, result.mean_pressure, e_star, result.dx)
-    if beyond_numpy and not (np.all(np.isfinite(u)) and np.isfinite(rounding) and np.isfinite(scale) and scale > 0):
-        return
-    if method == "direct":
-        # The dense solve ignores tol: it stops when its active set settles, at a residual set by
-        # rounding, which is large relative to the profile when C p / E* sums terms far larger
-        # than the profile (P / E* >> its slopes).
-        floor = rounding / scale
-        assert result.residual <= max(tol, DIRECT_RESIDUAL, floor), f"direct residual {result.residual:.3e}"
-    on = p > 0
-    assert on.any(), "converged with no element in contact"
-    lo, hi = float(np.min((zr - u)[on])), float(np.max((zr - u)[on]))
-    approach = 0.5 * (lo + hi)
-    surface = u + approach
-    tol_checked = max(tol, result.residual)
-    slack = 2.0 * tol_checked * scale + rounding + 8 * np.finfo(float).eps * (np.max(np.abs(zr)) + abs(top))
-    assert 0.5 * (hi - lo) <= slack, (
-        f"rubber surface leaves the profile on contact by {0.5 * (hi - lo):.3e} m > {slack:.3e} m "
-        f"(tol {tol_checked:g}, scale {scale:.3e} m)")
-    if not on.all():
-        penetration = float(np.max((zr - surface)[~on]))
-        assert penetration <= slack, f"rubber penetrates the profile by {penetration:.3e} m > {slack:.3e} m"
-        expected = np.maximum(surface, zr)[~on] + top
-        worst = float(np.max(np.abs(s[~on] - expected)))
-        assert worst <= slack + 4 * np.finfo(float).eps * abs(top), f"envelope off the elastic surface by {worst:.3e} m"
-
 
 # --------------------------------------------------------------------------------------------
 # strategies

@@ -105,20 +105,52 @@ def test_each_figure_with_data_panels_has_data(report, results: Path) -> None:
     assert octaves.filter(pl.col("pressure_level").is_finite()).height > 0
 
 
-def test_octave_levels_sum_their_third_octaves(results: Path) -> None:
-    from roadtex.report.data import load_results
+@pytest.fixture(scope="module")
+def octave_results(results: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The same archive and options as ``results``, with the job's band levels in octaves."""
+    folder = tmp_path_factory.mktemp("octaves")
+    manifest = write_synthetic_archive(folder / "archive", runs_per_kind=2, run_length=1.0)
+    options = ProcessingOptions(youngs_moduli=(1e6, 5e6), segment_length=0.25, tol=1e-8, band_kind="octave")
+    process(manifest, folder / "results", options, quiet=True)
+    return folder / "results"
 
-    loaded = load_results(results)
-    octaves = octave_table(loaded)
-    bands = loaded.bands.filter((pl.col("run_id") == octaves["run_id"][0]) & (pl.col("youngs_modulus") == 1e6))
-    assert octaves.filter(pl.col("band") == 21).height > 0, "the 8 mm octave (band 21) is reported"
-    # Power sum of the three third octaves per segment, then the energetic mean over segments.
-    third = bands.filter(pl.col("band").is_in([20, 21, 22]))
-    per_segment = third.group_by("segment").agg((10 ** (pl.col("enveloped_level") / 10)).sum().alias("p"))
-    expected = 10 * np.log10(per_segment["p"].mean())
-    got = octaves.filter((pl.col("run_id") == octaves["run_id"][0]) & (pl.col("youngs_modulus") == 1e6)
-                         & (pl.col("band") == 21))["enveloped_level"][0]
-    assert got == pytest.approx(expected, abs=1e-9)
+
+LEVELS = ("enveloped_level", "pressure_level", "texture_level")
+
+
+def test_octave_levels_sum_their_third_octaves(results: Path, octave_results: Path) -> None:
+    """The report sums third octaves n-1, n, n+1 into octave n. By Parseval the octave holds exactly
+    the power of its three third octaves, so the octave table of the third-octave job equals that of
+    a job whose spectra were binned straight into octaves (the same solves, another band path)."""
+    from_thirds = octave_table(load_results(results))
+    from_octaves = octave_table(load_results(octave_results))
+    assert from_thirds.filter(pl.col("band") == 21).height > 0, "the 8 mm octave (band 21) is reported"
+    keys = ["run_id", "youngs_modulus", "band"]
+    joined = from_thirds.join(from_octaves, on=keys, how="full", suffix="_direct")
+    assert joined.height == from_thirds.height == from_octaves.height
+    for column in LEVELS:
+        np.testing.assert_allclose(joined[column], joined[f"{column}_direct"], rtol=0, atol=1e-9, err_msg=column)
+
+
+def test_run_levels_are_energetic_means_of_the_segments(octave_results: Path) -> None:
+    """Each run's octave level averages its segments' levels in power: it lies between the lowest
+    and the highest segment, and above their mean in dB (Jensen: the mean of 10^(L/10) exceeds
+    10^(mean L / 10)) wherever the segments differ."""
+    loaded = load_results(octave_results)
+    table = octave_table(loaded)
+    per_segment = loaded.bands.group_by("run_id", "youngs_modulus", "band").agg(
+        *[pl.col(c).min().alias(f"{c}_min") for c in LEVELS], *[pl.col(c).max().alias(f"{c}_max") for c in LEVELS],
+        *[pl.col(c).mean().alias(f"{c}_db_mean") for c in LEVELS], pl.len().alias("segments"))
+    joined = table.join(per_segment, on=["run_id", "youngs_modulus", "band"], how="left")
+    assert joined.height == table.height and (joined["segments"] >= 2).all()
+    spread = 0
+    for column in LEVELS:
+        level, low, high = (joined[name].to_numpy() for name in (column, f"{column}_min", f"{column}_max"))
+        assert np.all((low - 1e-9 <= level) & (level <= high + 1e-9)), column
+        differ = high - low > 0.1
+        assert np.all(level[differ] > joined[f"{column}_db_mean"].to_numpy()[differ] + 1e-6), column
+        spread += int(differ.sum())
+    assert spread > 0, "no run whose segments differ: the Jensen check would be empty"
 
 
 def test_report_refuses_a_folder_that_is_not_results(tmp_path: Path) -> None:
