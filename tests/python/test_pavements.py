@@ -2,17 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from roadtex.profiles import Profile, mpd, read_profile
 from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.spectra import third_octave_levels
-
-CAPTIF_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "captif-slp"
-CAPTIF_FILES = sorted(CAPTIF_DIR.glob("*.dat")) if CAPTIF_DIR.is_dir() else []
 
 # (kind, options, MPD range in mm) as stated in roadtex.pavements' docstring (Sandberg & Ejsmont 2002,
 # PIARC, FHWA)
@@ -95,16 +90,16 @@ def test_tining_puts_a_tonal_peak_at_its_spacing():
     assert tined_levels[band] >= tined_levels.max() - 1.0
 
 
-@pytest.mark.skipif(not CAPTIF_FILES, reason=f"real CAPTIF profiles not found in {CAPTIF_DIR} (../shared beside the repo)")
-def test_synthetic_chip_seal_spectrum_is_near_the_real_captif_chip_seals():
+def test_synthetic_chip_seal_spectrum_is_near_the_real_captif_chip_seals(captif_dir):
+    captif_files = sorted(captif_dir.glob("*.dat"))
     synthetic = synthetic_pavement("surface_dressing", 1.8, 0.5e-3, seed=0)
     _, synthetic_levels = third_octave_texture_levels(synthetic, shortest=2e-3, longest=20e-3)
     real = [third_octave_texture_levels(read_profile(p).conditioned(dx=0.5e-3, spike_alpha=6), shortest=2e-3,
-                                        longest=20e-3)[1] for p in CAPTIF_FILES]
+                                        longest=20e-3)[1] for p in captif_files]
     real_mean = np.mean(real, axis=0)
     # within 6 dB in every band from 2 to 20 mm: same kind of surface, not the same surface
     assert np.max(np.abs(synthetic_levels - real_mean)) < 6.0
-    real_skewness = [skewness(read_profile(p).conditioned(dx=0.5e-3, spike_alpha=6).heights) for p in CAPTIF_FILES]
+    real_skewness = [skewness(read_profile(p).conditioned(dx=0.5e-3, spike_alpha=6).heights) for p in captif_files]
     assert min(real_skewness) - 0.3 < skewness(synthetic.detrend().heights) < max(real_skewness) + 0.3
 
 
