@@ -27,19 +27,7 @@ def format_number(value: float) -> str:
 
 
 def trim_reference_plates(profile: Profile, *, threshold: float = 0.02, margin: float = 0.002) -> Profile:
-    """Cuts away reference plates at the ends of the profile and everything outside them.
-
-    Stationary profilometers such as CAPTIF's show calibration plates far above the road at both
-    ends; the road section of interest lies between them. A plate is any reading more than
-    ``threshold`` (m) above the median height; drop-outs inside a plate (the laser often loses
-    the plate's top) belong to it. On each half of the profile the plate nearest the centre is
-    found, and the profile keeps what lies between the last road reading before (after) the
-    plate, moved inwards by ``margin`` (m) to drop the plate's edge. A half without a plate is
-    left as it is; the step is still recorded.
-
-    Raises:
-        ValueError: nothing would be left between the plates.
-    """
+    """Cuts away reference plates at the ends; documented at :meth:`Profile.trim_reference_plates`."""
     threshold_f = positive(threshold, "threshold")
     margin_f = finite_number(margin, "margin")
     if margin_f < 0:
@@ -75,15 +63,7 @@ def trim_reference_plates(profile: Profile, *, threshold: float = 0.02, margin: 
 
 
 def remove_spikes(profile: Profile, alpha: float = 3.0) -> Profile:
-    """Flags spikes as drop-outs (NaN), with the ISO 13473-1:2019 (Annex E) criterion.
-
-    A jump between consecutive valid readings i-1, i is a spike when
-    |z_i - z_(i-1)| >= alpha * (x_i - x_(i-1)): a slope steeper than ``alpha`` (3 in the
-    standard, about 72 degrees). Both readings of the jump are flagged, as in the standard and
-    in captif-slp. The criterion is meant for profiles resampled to 0.5 or 1 mm; on finer raw
-    sampling it also flags steep but real stone edges. Alpha = 6 suits coarse chip seals
-    measured by the CAPTIF laser (its authors' setting).
-    """
+    """Flags spikes as drop-outs (ISO 13473-1:2019 Annex E); documented at :meth:`Profile.remove_spikes`."""
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = profile.heights.copy()
     valid_index = np.flatnonzero(~np.isnan(z))
@@ -97,11 +77,7 @@ def remove_spikes(profile: Profile, alpha: float = 3.0) -> Profile:
 
 
 def fill_dropouts(profile: Profile) -> Profile:
-    """Replaces drop-outs (NaN) by linear interpolation between the nearest valid readings.
-
-    Leading and trailing drop-outs take the first and last valid height (ISO 13473-1 has no
-    neighbour to interpolate from there).
-    """
+    """Fills drop-outs by linear interpolation; documented at :meth:`Profile.fill_dropouts`."""
     z = profile.heights
     missing = np.isnan(z)
     if not missing.any():
@@ -112,15 +88,7 @@ def fill_dropouts(profile: Profile) -> Profile:
 
 
 def resample(profile: Profile, dx: float) -> Profile:
-    """A uniform profile of spacing ``dx`` (m), each new height the mean of the valid readings in
-    its interval (the ISO 13473-1 resampling; averaging is also the anti-alias filter).
-
-    Each raw reading stands for the interval of one nominal dx around it, so the new grid tiles
-    [positions[0] - dx_raw/2, positions[-1] + dx_raw/2) from its left edge and new positions
-    are interval centres; resampling at the profile's own spacing is the identity. An interval
-    with no valid reading is a drop-out (NaN): that includes every other interval when ``dx`` is
-    finer than the data, which :meth:`fill_dropouts` then interpolates.
-    """
+    """Resamples to a uniform grid of spacing ``dx`` (m) by interval averaging; documented at :meth:`Profile.resample`."""
     new_dx = positive(dx, "dx")
     left = profile.positions[0] - 0.5 * profile.dx
     n_bins = max(1, int(math.ceil(profile.length / new_dx - 1e-9)))
@@ -146,8 +114,7 @@ def resample(profile: Profile, dx: float) -> Profile:
 
 
 def detrend(profile: Profile, kind: Literal["linear", "mean"] = "linear") -> Profile:
-    """Removes the least-squares line (``"linear"``, slope suppression) or the mean (``"mean"``)
-    fitted to the valid readings. Drop-outs stay NaN."""
+    """Removes the least-squares line or the mean of the valid readings; documented at :meth:`Profile.detrend`."""
     if kind not in ("linear", "mean"):
         raise InvalidInputError(f"kind must be 'linear' or 'mean', got {kind!r}")
     z, x = profile.heights, profile.positions
