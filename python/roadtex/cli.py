@@ -31,27 +31,51 @@ def report_command(args: argparse.Namespace) -> int:
 def process_command(args: argparse.Namespace) -> int:
     """``roadtex process MANIFEST --out DIR``: the bulk job."""
     import logging
+    import warnings
 
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
+    from roadtex.archive.options import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
+    from roadtex.errors import ImplausibleParameterWarning
 
     if args.quiet:
         logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    if not args.allow_implausible:
+        checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
+        checks.append(("--pressure", args.pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
+        refused = [(flag, value, plausible, what) for flag, value, plausible, what in checks
+                   if implausible_parameter(value * 1e6, flag, plausible) is not None]
+        for flag, value, (low, high), what in refused:
+            print(f"roadtex process: error: {flag} {value:g} MPa is outside the plausible range of {what} "
+                  f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2); "
+                  "--allow-implausible solves it anyway.", file=sys.stderr)
+        if refused:
+            return 2
+    reader_defaults = {"distance_unit": args.distance_unit, "height_unit": args.height_unit,
+                       "delimiter": args.delimiter, "decimal": args.decimal, "dx": args.input_dx}
     try:
         options = ProcessingOptions(
             youngs_moduli=tuple(e * 1e6 for e in args.moduli), mean_pressure=args.pressure * 1e6,
             poisson=args.poisson, segment_length=args.segment_length, segment_overlap=args.overlap,
-            dx=args.dx, spike_alpha=args.spike_alpha,
+            dx=args.dx, spike_alpha=None if args.spike_alpha <= 0 else args.spike_alpha,
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
-            band_kind=args.bands, speed_kmh=args.speed, keep_profiles=args.keep_profiles)
-        summary = process(args.manifest, args.out, options, engine=args.engine, scheduler=args.scheduler,
-                          workers=args.workers, threads=args.threads, quiet=args.quiet, force=args.force)
+            band_kind=args.bands, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
+            reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
+        with warnings.catch_warnings():
+            # the plausibility of E and P was settled above (--allow-implausible)
+            warnings.simplefilter("ignore", ImplausibleParameterWarning)
+            summary = process(args.manifest, args.out, options, engine=args.engine, scheduler=args.scheduler,
+                              workers=args.workers, threads=args.threads, quiet=args.quiet, force=args.force,
+                              retry_failed=args.retry_failed)
     except (ManifestError, ArchiveWriteError, ValueError) as exc:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
     print(f"roadtex process: {summary}")
     for name, path in summary.tables.items():
         print(f"  {name:<11} {path}")
-    return 1 if summary.failed else 0
+    if summary.failed_on_record:
+        print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
+              f"{summary.tables.get('errors')}", file=sys.stderr)
+    return 1 if summary.failed_on_record else 0
 
 
 def manifest_command(args: argparse.Namespace) -> int:
@@ -72,20 +96,26 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     from roadtex.archive import ProcessingOptions
 
     defaults = ProcessingOptions()
+    moduli = " ".join(f"{e / 1e6:g}" for e in defaults.youngs_moduli)
     parser.add_argument("--moduli", type=float, nargs="+", default=[e / 1e6 for e in defaults.youngs_moduli],
-                        metavar="MPA", help="rubber Young's moduli E in MPa (default 1 2 5 10)")
+                        metavar="MPA", help=f"rubber Young's moduli E in MPa (default {moduli}; "
+                                            "outside 0.1 to 100 MPa refused unless --allow-implausible)")
     parser.add_argument("--pressure", type=float, default=defaults.mean_pressure / 1e6, metavar="MPA",
-                        help="mean contact pressure P in MPa (default 0.2)")
+                        help=f"mean contact pressure P in MPa (default {defaults.mean_pressure / 1e6:g}; "
+                             "outside 0.02 to 3 MPa refused unless --allow-implausible)")
+    parser.add_argument("--allow-implausible", action="store_true",
+                        help="solve for E and P outside the plausible ranges (they are usually unit mistakes)")
     parser.add_argument("--poisson", type=float, default=defaults.poisson, help="rubber Poisson ratio (default 0.5)")
     parser.add_argument("--segment-length", type=float, default=defaults.segment_length, metavar="M",
                         help="segment length in m for the periodic contact model (default 0.5)")
     parser.add_argument("--overlap", type=float, default=defaults.segment_overlap, metavar="M",
                         help="overlap of consecutive segments in m (default 0)")
     parser.add_argument("--dx", type=float, default=None, metavar="M",
-                        help="resample every run to this sampling interval in m (default: keep the file's)")
+                        help="solve every run at this sampling interval in m (default: one interval for the "
+                             "whole job, the finest among the runs)")
     parser.add_argument("--spike-alpha", type=float, default=defaults.spike_alpha,
-                        help="spike criterion alpha of the conditioning for the contact model "
-                             "(default: no spike removal)")
+                        help="spike criterion before contact and spectra: a reading alpha x 0.5 mm from the median "
+                             "within 0.5 mm is a spike (default 3, ISO 13473-1's alpha; 0 turns it off)")
     parser.add_argument("--mpd-spike-alpha", type=float, default=defaults.mpd_spike_alpha,
                         help="spike criterion alpha of the ISO 13473-1 MPD (default 3; 0 turns it off)")
     parser.add_argument("--tol", type=float, default=defaults.tol, help="solver tolerance (default 1e-6)")
@@ -93,6 +123,17 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                         help="band kind of the spectra (default third_octave)")
     parser.add_argument("--speed", type=float, default=None, metavar="KMH",
                         help="vehicle speed in km/h for band frequencies when the manifest has none")
+    reading = parser.add_argument_group("reading files (defaults for every run; manifest columns of the same "
+                                        "names override them per run)")
+    reading.add_argument("--distance-unit", default=None, metavar="UNIT",
+                         help="unit of the distance column when the header has none (m, mm, um)")
+    reading.add_argument("--height-unit", default=None, metavar="UNIT",
+                         help="unit of the height column when the header has none (m, mm, um)")
+    reading.add_argument("--delimiter", default=None, help="column delimiter of text files (default: sniffed)")
+    reading.add_argument("--decimal", default=None, choices=[".", ","],
+                         help="decimal mark of text files (default: sniffed; ',' for European exports)")
+    reading.add_argument("--input-dx", type=float, default=None, metavar="M",
+                         help="sampling interval in m of heights-only files (.npy, one-column text)")
     parser.add_argument("--keep-profiles", action="store_true",
                         help="also write the enveloped profiles and pressures (large)")
     parser.add_argument("--engine", choices=["local", "dask"], default="local",
@@ -102,11 +143,16 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2, help="worker processes of a local Dask cluster (default 2)")
     parser.add_argument("--threads", type=int, default=None, help="Rust threads per run (default: all cores)")
     parser.add_argument("--force", action="store_true", help="recompute runs that are already done")
+    parser.add_argument("--retry-failed", action="store_true",
+                        help="process again the runs that failed before (they stay on record until retried)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar; one log line per run")
 
 
 def main(argv: list[str] | None = None) -> int:
+    from roadtex._core import __version__
+
     parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
+    parser.add_argument("--version", action="version", version=f"roadtex {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report")
     d.add_argument("--out", default="roadtex-output", help="output folder (default roadtex-output)")

@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.plan import reader_options
 from roadtex.archive.schemas import BAND_SCHEMA, EXAMPLE_SCHEMA, METADATA_COLUMNS, PROFILE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import ContactBatch
+from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
+from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import read_profile
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -38,14 +43,25 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
 
 
 def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
-    """Reads, conditions, segments, solves and analyses one run; returns its tables (nothing written).
+    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
+
+    ``options.dx`` must be set (the job's plan fills it in: :meth:`JobPlan.resolved`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
-            too short for one 100 mm MPD baseline or one segment fails as a whole.
+            too short for one 100 mm MPD baseline or one segment fails as a whole, and so does a
+            file whose heights cannot be a road texture in the unit read (a unit mistake).
     """
-    raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format")))
-    conditioned = run_stage("condition", lambda: raw.conditioned(dx=options.dx, spike_alpha=options.spike_alpha))
+    if options.dx is None:
+        raise InvalidInputError("compute_run needs options.dx (the job's plan sets it)")
+    name = Path(run["path"]).name
+    raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reader_options(run, options)))
+    reason = implausible_texture(raw.heights, raw.dx, name)
+    if reason is not None:
+        raise RunFailure("read", InvalidInputError(
+            f"{reason} Give the file's units (manifest columns distance_unit, height_unit; --height-unit)."))
+    cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
+    conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
@@ -66,12 +82,12 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # the same way as its (periodic) output: exact DFT band powers, no window. Differences
     # enveloped - original then come from the envelopment alone, not from a change of method.
     texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True))
-    reported = texture.bands["reported"].to_numpy()
-    if not reported.any():
+    if not texture.bands["reported"].any():
         raise RunFailure("spectra", InvalidInputError(
             f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
             f"segment length ({segments.length:.3g} m); use longer segments"))
-    bands = texture.bands.filter(pl.col("reported"))
+    # Every candidate band is kept, with its reported flag and the reason when it is not reported.
+    bands = texture.bands
     band_count = bands.height
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(band_count, np.nan))
@@ -127,26 +143,51 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "label": np.tile(bands["label"].to_numpy(), rows),
             "centre_wavelength": np.tile(bands["centre_wavelength"].to_numpy(), rows),
             "frequency": np.tile(frequency, rows),
-            "texture_level": texture.levels[seg_index][:, reported].ravel(),
-            "enveloped_level": enveloped.levels[:, reported].ravel(),
-            "pressure_level": pressure.levels[:, reported].ravel(),
+            "reported": np.tile(bands["reported"].to_numpy(), rows),
+            "reason": np.tile(bands["reason"].to_numpy(), rows),
+            "texture_level": texture.levels[seg_index].ravel(),
+            "enveloped_level": enveloped.levels.ravel(),
+            "pressure_level": pressure.levels.ravel(),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id")).select(
             [pl.col(name).cast(dtype) for name, dtype in BAND_SCHEMA.items()]))
 
+    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
     tables = {
         "example": example,
-        "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA),
-        "bands": pl.concat(band_frames).with_columns(pl.col("frequency").fill_nan(None)),
-        "run": pl.DataFrame({
-            "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-            "points": [conditioned.heights.size],
-            "length": [conditioned.length], "dx": [dx], "segments": [n_segments], "mpd": [depth.mpd],
-            "dropout_fraction": [raw.dropout_fraction],
-        }, schema=RUN_SCHEMA),
+        # NaN (no valid baseline, a band without DFT line) and -inf (a band without power) are
+        # undefined numbers: null in the tables, never a number that sorts or averages.
+        "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA).with_columns(pl.col("mpd").fill_nan(None)),
+        "bands": pl.concat(band_frames).with_columns(
+            pl.col("frequency").fill_nan(None),
+            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
     return tables
+
+
+def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[Profile, CleaningSummary]:
+    """:func:`clean` with its warnings recorded in the summary (and runs.parquet) instead of printed
+    from worker threads, where they would interleave with the progress bar."""
+    return clean(raw, spike_alpha=spike_alpha, name=name, warn=False)
+
+
+def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
+              n_segments: int) -> pl.DataFrame:
+    """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity."""
+    mpd_value = depth.mpd if np.isfinite(depth.mpd) else None
+    return pl.DataFrame({
+        "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
+        "file_dx": [raw.dx], "dx": [conditioned.dx], "points": [conditioned.heights.size],
+        "raw_length": [cleaning.raw_length], "trimmed_length": [cleaning.trimmed_length],
+        "length": [conditioned.length], "plates": [cleaning.plates],
+        "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
+        "outlier_fraction": [cleaning.outlier_fraction],
+        "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
+        "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
+        "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
+    }, schema=RUN_SCHEMA)
 
 
 def segment_mpd(baselines: pl.DataFrame, starts: np.ndarray, length: float, dx: float) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import time
 import uuid
 from pathlib import Path
 from typing import Any, Callable, Iterable
@@ -25,7 +26,7 @@ LOCAL_RUNS_IN_FLIGHT = 2
 
 
 def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
-                   threads: int | None, force: bool) -> Iterable[tuple[dict[str, Any], int]]:
+                   threads: int | None, flags: dict[str, bool]) -> Iterable[tuple[dict[str, Any], int]]:
     """Runs in manifest order, a bounded number at a time; yields (status, size) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
@@ -36,7 +37,7 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
             while pending or in_flight:
                 while pending and len(in_flight) < LOCAL_RUNS_IN_FLIGHT:
                     run, size = pending.pop()
-                    in_flight[pool.submit(work, run, options, out, threads=threads, force=force)] = size
+                    in_flight[pool.submit(work, run, options, out, threads=threads, **flags)] = size
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 for future in done:
                     size = in_flight.pop(future)
@@ -47,7 +48,8 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
 
 
 def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
-                  scheduler: str | None, workers: int, threads: int | None, force: bool) -> Iterable[tuple[dict[str, Any], int]]:
+                  scheduler: str | None, workers: int, threads: int | None,
+                  flags: dict[str, bool]) -> Iterable[tuple[dict[str, Any], int]]:
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -63,7 +65,7 @@ def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], 
         by_key = {}
         futures = []
         for run, size in zip(runs, sizes):
-            future = client.submit(work, run, options, str(out), threads=threads, force=force,
+            future = client.submit(work, run, options, str(out), threads=threads, **flags,
                                    key=f"roadtex-run-{run['run_id']}-{uuid.uuid4().hex[:8]}", pure=False)
             by_key[future.key] = size
             futures.append(future)
@@ -76,28 +78,46 @@ def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], 
 
 
 class Progress:
-    """A progress bar over bytes of input (for the ETA), showing runs and kilometres done."""
+    """A progress bar counting runs, with the kilometres of profile done and an ETA.
+
+    The ETA weighs what is left by file size (runs differ in length): remaining time = elapsed x
+    (bytes left / bytes done). Skipped runs (already done) do not count towards the rate.
+    """
 
     def __init__(self, runs: int, total_bytes: int, quiet: bool):
         self.runs, self.done, self.km, self.quiet = runs, 0, 0.0, quiet
+        self.total_bytes, self.bytes_done, self.work_bytes = max(total_bytes, 1), 0, 0
+        self.started = time.perf_counter()
         self.bar = None
         if not quiet:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=max(total_bytes, 1), unit="B", unit_scale=True, desc=f"runs 0/{runs}",
-                            file=sys.stderr, dynamic_ncols=True)
+            self.bar = tqdm(total=runs, unit="run", file=sys.stderr, dynamic_ncols=True,
+                            bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} runs{postfix}")
+
+    def eta(self) -> str:
+        elapsed = time.perf_counter() - self.started
+        if self.work_bytes == 0:
+            return "ETA ?"
+        left = elapsed * (self.total_bytes - self.bytes_done) / self.work_bytes
+        return f"ETA {int(left // 60)}:{int(left % 60):02d}"
 
     def update(self, status: dict[str, Any], size: int) -> None:
         self.done += 1
-        self.km += float(status.get("kilometres", 0.0))
+        self.bytes_done += size
         state = "skipped" if status.get("skipped") else status["state"]
+        if state != "skipped":
+            self.work_bytes += size
+            self.km += float(status.get("kilometres", 0.0))
+        elapsed = time.perf_counter() - self.started
         if self.bar is not None:
-            self.bar.set_description(f"runs {self.done}/{self.runs}")
-            self.bar.set_postfix_str(f"{self.km:.3f} km", refresh=False)
-            self.bar.update(size)
+            rate = self.km / elapsed * 3600 if elapsed > 0 else 0.0
+            self.bar.set_postfix_str(f"{self.km:.3f} km, {rate:.2f} km/h, {self.eta()}", refresh=False)
+            self.bar.update(1)
         else:
             detail = f": {status.get('stage')}: {status.get('message')}" if state == "error" else ""
-            log.info("run %d/%d %s %s (%.3f km so far)%s", self.done, self.runs, status["run_id"], state, self.km, detail)
+            log.info("run %d/%d %s %s (%.3f km so far, %s)%s", self.done, self.runs, status["run_id"], state, self.km,
+                     self.eta(), detail)
 
     def close(self) -> None:
         if self.bar is not None:

@@ -18,7 +18,18 @@ from roadtex.archive.compute import RunFailure, compute_run
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.schemas import BAND_SCHEMA, EDGE_EFFECT_SCHEMA, ERROR_SCHEMA, EXAMPLE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
+from roadtex.archive.plan import JobPlan, plan_job
+from roadtex.archive.schemas import (
+    BAND_SCHEMA,
+    EDGE_EFFECT_SCHEMA,
+    ERROR_SCHEMA,
+    EXAMPLE_SCHEMA,
+    RUN_SCHEMA,
+    SEGMENT_SCHEMA,
+    TABLES,
+    parquet_metadata,
+    units,
+)
 from roadtex.archive.store import (
     STATUS_FILE,
     check_writable,
@@ -34,6 +45,11 @@ from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFound
 from roadtex.models.comparisons import edge_effect
 
 Engine = Literal["local", "dask"]
+#: Per-run file stem -> the combined table whose columns it has.
+PER_RUN_TABLES = {"segments": "segments", "bands": "bands", "run": "runs", "example": "examples", "profiles": "profiles"}
+#: Units of ProcessingOptions' fields, recorded in parameters.json.
+OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
+                "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1"}
 
 
 @dataclass(frozen=True)
@@ -48,17 +64,27 @@ class ProcessSummary:
     kilometres: float
     seconds: float
     tables: dict[str, Path] = field(default_factory=dict)
+    #: runs whose latest attempt failed, this call or an earlier one (errors.parquet lists them)
+    failed_on_record: int = 0
+    dx: float | None = None
 
     def __str__(self) -> str:
+        earlier = self.failed_on_record - self.failed
+        record = (f" ({earlier} more failed in an earlier call and were not retried: see errors.parquet, "
+                  "or process again with --retry-failed)") if earlier > 0 else ""
+        grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None else ""
         return (f"{self.runs} runs: {self.processed} processed, {self.skipped} already done, "
-                f"{self.failed} failed; {self.kilometres:.3f} km of profile in {self.seconds:.1f} s -> {self.out_dir}")
+                f"{self.failed} failed{record}; {self.kilometres:.3f} km of profile{grid} in {self.seconds:.1f} s "
+                f"-> {self.out_dir}")
 
 
 def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | os.PathLike[str], *,
-                threads: int | None = None, force: bool = False) -> dict[str, Any]:
+                threads: int | None = None, force: bool = False, retry_failed: bool = False) -> dict[str, Any]:
     """Processes one manifest row and writes its outputs atomically to ``out_dir/runs/<run_id>/``.
 
-    Skips the work when the run's status already matches the options and the input file.
+    ``options`` are the resolved ones (``dx`` set, see :class:`~roadtex.archive.plan.JobPlan`).
+    Skips the work when the run's status already matches the options and the input file, unless
+    ``force``, or ``retry_failed`` and the run failed.
 
     Returns:
         The run's status: ``state`` ("ok", "error" or "skipped"), fingerprints, ``kilometres`` and,
@@ -75,7 +101,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         input_sha256 = f"unreadable: {exc}"
     fingerprint = run_fingerprint(options_fingerprint, input_sha256, run)
     previous = read_status(run_dir)
-    if not force and previous is not None and previous.get("fingerprint") == fingerprint:
+    if (not force and previous is not None and previous.get("fingerprint") == fingerprint
+            and not (retry_failed and previous.get("state") == "error")):
         return {**previous, "skipped": True}
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
@@ -94,7 +121,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         for name, table in tables.items():
             if table is None:
                 continue
-            write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
+            write_atomically(run_dir / f"{name}.parquet", lambda p, t=table, n=name: t.write_parquet(
+                p, statistics=True, metadata=parquet_metadata(TABLES[PER_RUN_TABLES[n]])))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
     for stale in ("example", "segments", "bands", "run", "profiles"):
@@ -111,7 +139,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
 def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.PathLike[str],
             options: ProcessingOptions | None = None, *, engine: Engine = "local", scheduler: str | None = None,
             workers: int = 2, threads: int | None = None, quiet: bool = False, force: bool = False,
-            extra_columns: Sequence[str] = ()) -> ProcessSummary:
+            retry_failed: bool = False, extra_columns: Sequence[str] = ()) -> ProcessSummary:
     """Processes every run of a manifest and writes the combined tables to ``out_dir``.
 
     Args:
@@ -126,6 +154,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
             default is one per worker).
         quiet: no progress bar; one log line per run instead (logger ``roadtex.archive``).
         force: recompute runs even when their status is current.
+        retry_failed: process again the runs whose last attempt failed (by default a failure stays
+            on record, is counted in the summary and listed in errors.parquet until retried).
 
     Returns:
         A :class:`ProcessSummary`.
@@ -139,36 +169,43 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     out = Path(out_dir)
     check_writable(out)
     remove_stale_temporaries(out)
+    if engine not in ("local", "dask"):
+        raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
+    plan = plan_job(runs, options)
+    resolved = plan.resolved(options)
     progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
+    flags = {"force": force, "retry_failed": retry_failed}
     try:
         if engine == "local":
-            for status, size in process_local(process_run, runs, sizes, options, out, threads, force):
-                statuses[status["run_id"]] = status
-                progress.update(status, size)
-        elif engine == "dask":
-            for status, size in process_dask(process_run, runs, sizes, options, out, scheduler, workers, threads, force):
-                statuses[status["run_id"]] = status
-                progress.update(status, size)
+            finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
         else:
-            raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
+            finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads, flags)
+        for status, size in finished:
+            statuses[status["run_id"]] = status
+            progress.update(status, size)
     finally:
         progress.close()
-    tables = combine(table, out, options)
+    tables = combine(table, out, resolved, plan=plan, requested=options)
     counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
               for state in ("ok", "error")}
     return ProcessSummary(
         out_dir=out, runs=len(runs), processed=counts["ok"], failed=counts["error"],
         skipped=sum(1 for s in statuses.values() if s["skipped"]),
         kilometres=sum(float(s.get("kilometres", 0.0)) for s in statuses.values() if not s["skipped"]),
-        seconds=time.perf_counter() - started, tables=tables)
+        seconds=time.perf_counter() - started, tables=tables,
+        failed_on_record=sum(1 for s in statuses.values() if s["state"] == "error"), dx=plan.dx)
 
 
-def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions) -> dict[str, Path]:
+def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions, *,
+            plan: JobPlan | None = None, requested: ProcessingOptions | None = None) -> dict[str, Path]:
     """Concatenates the per-run tables of the runs in ``manifest`` (in its order) into the combined tables.
+
+    ``options`` are the resolved options the runs were solved with; ``requested`` and ``plan``
+    (what the caller asked for, and how the job chose its sampling) go into parameters.json.
 
     Only runs whose status is current for ``options`` count; stale folders are ignored. The
     tables are streamed from the per-run files to the combined file (polars' streaming sink), so
@@ -195,21 +232,25 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
+        metadata = parquet_metadata(TABLES[name])
         if files:
             query = pl.scan_parquet(files, schema=schemas[name])
-            write_atomically(path, lambda p, q=query: q.sink_parquet(p, statistics=True))
+            write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
             empty = pl.DataFrame(schema=schemas[name])
-            write_atomically(path, lambda p, t=empty: t.write_parquet(p, statistics=True))
+            write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, metadata=m))
         written[name] = path
     edge = edge_effect_table(options)
-    write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p))
+    write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p, metadata=parquet_metadata(TABLES["edge_effect"])))
     written["edge_effect"] = out / "edge_effect.parquet"
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
-    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p))
+    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, metadata=parquet_metadata(TABLES["errors"])))
     written["errors"] = out / "errors.parquet"
     write_json(out / "parameters.json", {
         "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
+        "requested_options": dataclasses.asdict(requested or options),
+        "plan": dataclasses.asdict(plan) if plan is not None else None,
+        "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
         "versions": software_versions(), "runs": manifest.height,
     })
     written["parameters"] = out / "parameters.json"

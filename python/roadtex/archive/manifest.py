@@ -8,7 +8,7 @@ from typing import Any, Sequence
 
 import polars as pl
 
-from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX
+from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.errors import ManifestError
 from roadtex.profiles.readers import read_profile
 
@@ -23,8 +23,10 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     Columns: ``path`` (required; relative paths are taken from the manifest's folder or
     ``base_dir``), optional ``run_id`` (default: the file name without suffix; must be unique),
     ``format`` (as for :func:`roadtex.read_profile`; default: guessed), the metadata columns
-    :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h) and measured noise levels ``noise_<band>``
-    (dB). Any other column must be named in ``extra_columns`` (it is then carried along unused).
+    :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h), reader options per run
+    (:data:`READER_COLUMNS`: ``distance_unit``, ``height_unit``, ``delimiter``, ``decimal``, ``dx``
+    in m for heights-only files, ...; see :func:`roadtex.read_profile`) and measured noise levels
+    ``noise_<band>`` (dB). Any other column must be named in ``extra_columns`` (it is then carried along unused).
 
     Returns:
         The manifest with absolute paths, every known column present (null when absent) and
@@ -52,12 +54,14 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             raise ManifestError(f"cannot read manifest {manifest_path}: {exc}") from None
     if "path" not in table.columns:
         raise ManifestError(f"manifest has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
+    known = {**MANIFEST_COLUMNS, **READER_COLUMNS}
     unknown = [c for c in table.columns
-               if c not in MANIFEST_COLUMNS and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
+               if c not in known and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
     if unknown:
         raise ManifestError(
             f"manifest has unknown column(s) {', '.join(map(repr, unknown))}; known: "
-            f"{', '.join(MANIFEST_COLUMNS)}, and {NOISE_PREFIX}<band> for noise levels (dB); "
+            f"{', '.join(MANIFEST_COLUMNS)}; reader options {', '.join(READER_COLUMNS)}; "
+            f"and {NOISE_PREFIX}<band> for noise levels (dB); "
             "pass extra_columns to carry others along")
     if table.height == 0:
         raise ManifestError("manifest lists no runs")
@@ -67,19 +71,28 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             casts.append(pl.lit(None, dtype=dtype).alias(name))
         else:
             casts.append(pl.col(name).cast(dtype, strict=False).alias(name))
+    for name, dtype in READER_COLUMNS.items():
+        if name in table.columns:
+            casts.append(pl.col(name).cast(dtype, strict=False).alias(name))
     for name in table.columns:
         if name.startswith(NOISE_PREFIX):
             casts.append(pl.col(name).cast(pl.Float64, strict=False).alias(name))
-    for name in ("speed_kmh", *[c for c in table.columns if c.startswith(NOISE_PREFIX)]):
+    numeric = [n for n, t in READER_COLUMNS.items() if t is pl.Float64]
+    for name in ("speed_kmh", *numeric, *[c for c in table.columns if c.startswith(NOISE_PREFIX)]):
         if name in table.columns:
             bad = table.filter(pl.col(name).is_not_null()
                                & pl.col(name).cast(pl.Float64, strict=False).is_null())
             if bad.height:
                 raise ManifestError(f"manifest column {name!r} must be numeric; row value {bad[name][0]!r}")
-    if "speed_kmh" in table.columns:
-        speeds = table["speed_kmh"].cast(pl.Float64, strict=False).drop_nulls()
-        if speeds.len() and not (speeds > 0).all():
-            raise ManifestError(f"manifest column 'speed_kmh' must be positive (km/h); found {speeds.filter(speeds <= 0)[0]!r}")
+    for name, unit in (("speed_kmh", "km/h"), ("dx", "m")):
+        if name in table.columns:
+            values = table[name].cast(pl.Float64, strict=False).drop_nulls()
+            if values.len() and not (values > 0).all():
+                raise ManifestError(f"manifest column {name!r} must be positive ({unit}); found {values.filter(values <= 0)[0]!r}")
+    if "decimal" in table.columns:
+        bad_marks = table.filter(pl.col("decimal").is_not_null() & ~pl.col("decimal").is_in([".", ","]))
+        if bad_marks.height:
+            raise ManifestError(f"manifest column 'decimal' must be '.' or ','; found {bad_marks['decimal'][0]!r}")
     table = table.with_columns(casts)
     if table["path"].null_count():
         raise ManifestError("manifest column 'path' has empty entries")

@@ -5,14 +5,38 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from roadtex._checks import finite_number, poisson_ratio, positive, positive_int
 from roadtex._core import __version__
-from roadtex.errors import InvalidInputError
+from roadtex.errors import ImplausibleParameterWarning, InvalidInputError
+from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.spectra.bands import check_band_kind
+
+#: Plausible rubber Young's moduli (Pa): tyre tread compounds are 1 to 10 MPa; this leaves a
+#: decade either side. Outside it, a modulus is taken for a unit mistake (MPa given as Pa, ...).
+PLAUSIBLE_MODULUS = (1e5, 1e8)
+#: Plausible mean contact pressures (Pa): car tyres are inflated to about 0.2 MPa, trucks to about
+#: 0.9 MPa; this leaves room either side.
+PLAUSIBLE_PRESSURE = (2e4, 3e6)
+
+
+def implausible_parameter(value: float, name: str, plausible: tuple[float, float]) -> str | None:
+    """Why ``value`` (Pa) is implausible for ``name``, or None."""
+    low, high = plausible
+    if low <= value <= high:
+        return None
+    return (f"{name} = {value:.4g} Pa is outside the plausible range {low / 1e6:g} to {high / 1e6:g} MPa "
+            f"({value / 1e6:.4g} MPa): is it in the wrong unit?")
+
+
+def warn_if_implausible_parameter(value: float, name: str, plausible: tuple[float, float]) -> None:
+    reason = implausible_parameter(value, name, plausible)
+    if reason is not None:
+        warnings.warn(reason + " Computing as given.", ImplausibleParameterWarning, stacklevel=4)
 
 
 @dataclass(frozen=True)
@@ -25,10 +49,14 @@ class ProcessingOptions:
         poisson: nu of the rubber.
         segment_length: length of the segments handed to the periodic contact model (m).
         segment_overlap: overlap between consecutive segments (m).
-        dx: resample every run to this sampling interval (m); None keeps the file's sampling.
-        spike_alpha: spike criterion alpha of the conditioning for the contact model (None: no
-            spike removal). It compares adjacent samples, so it means what ISO 13473-1 means
-            only at 0.5 to 1 mm sampling; at finer sampling leave it off or raise it.
+        dx: the sampling interval every run is solved at (m). None (the default): one interval
+            for the whole job, chosen before any run is processed (see
+            :func:`roadtex.archive.plan.plan_job`), so that the same road sampled differently by
+            two devices gives comparable results.
+        spike_alpha: spike criterion of the cleaning before the contact model and the spectra: a
+            reading at least alpha x 0.5 mm from the median of the readings within 0.5 mm is a
+            spike (ISO 13473-1's alpha, on its 0.5 mm grid, whatever the file's sampling; see
+            :func:`roadtex.profiles.conditioning.clean`). None: no spike removal.
         mpd_spike_alpha: spike criterion of the mean profile depth, computed after ISO 13473-1 on
             the profile resampled to 0.5 mm (3 in the standard; the CAPTIF authors use 6 on
             coarse chip seals; None skips).
@@ -40,6 +68,9 @@ class ProcessingOptions:
         band_kind: "third_octave" or "octave".
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
         keep_profiles: also write the enveloped profiles and pressures (large).
+        reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
+            ``height_unit``, ``delimiter``, ``decimal``, ``dx`` in m, ...); manifest columns of the
+            same names override them per run.
     """
 
     youngs_moduli: tuple[float, ...] = (1e6, 2e6, 5e6, 1e7)
@@ -48,13 +79,14 @@ class ProcessingOptions:
     segment_length: float = 0.5
     segment_overlap: float = 0.0
     dx: float | None = None
-    spike_alpha: float | None = None
+    spike_alpha: float | None = 3.0
     mpd_spike_alpha: float | None = 3.0
     tol: float = 1e-6
     max_iterations: int = 2000
     band_kind: str = "third_octave"
     speed_kmh: float | None = None
     keep_profiles: bool = False
+    reader_defaults: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         moduli = tuple(positive(e, "youngs_moduli", "Pa") for e in np.atleast_1d(self.youngs_moduli))
@@ -77,6 +109,13 @@ class ProcessingOptions:
             if value is not None:
                 object.__setattr__(self, name, positive(value, name, unit))
         check_band_kind(self.band_kind)
+        unknown = set(self.reader_defaults) - set(READ_OPTIONS)
+        if unknown:
+            raise InvalidInputError(f"reader_defaults has unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
+        object.__setattr__(self, "reader_defaults", {k: v for k, v in sorted(self.reader_defaults.items()) if v is not None})
+        for modulus in moduli:
+            warn_if_implausible_parameter(modulus, "youngs_moduli", PLAUSIBLE_MODULUS)
+        warn_if_implausible_parameter(self.mean_pressure, "mean_pressure", PLAUSIBLE_PRESSURE)
 
     def fingerprint(self) -> str:
         """SHA-256 of the options and the roadtex version: equal fingerprints give equal results."""

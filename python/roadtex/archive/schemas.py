@@ -1,8 +1,19 @@
-"""The bulk job's tables: manifest columns and the schema of every Parquet file it writes."""
+"""The bulk job's tables: manifest columns and the schema of every Parquet file it writes, with the
+unit of every numeric column.
+
+Each table is declared once as ``column: (type, unit)``; the job writes the units into each Parquet
+file's key-value metadata under ``units`` (a JSON object from column to unit), so a file read years
+later still says what its numbers mean. ``"1"`` marks a dimensionless share or ratio, ``"count"`` a
+count; text and boolean columns have no unit.
+"""
 
 from __future__ import annotations
 
+import json
+
 import polars as pl
+
+from roadtex.profiles.readers import READ_OPTIONS
 
 #: Manifest columns that carry run metadata, with their types. ``path`` is the only required column.
 MANIFEST_COLUMNS: dict[str, type[pl.DataType] | pl.DataType] = {
@@ -18,6 +29,11 @@ MANIFEST_COLUMNS: dict[str, type[pl.DataType] | pl.DataType] = {
     "pavement": pl.String,
     "speed_kmh": pl.Float64,
 }
+#: Manifest columns that carry :func:`roadtex.read_profile` options for one run (``dx`` in m is
+#: the sampling interval of a heights-only file); they override the job's reader defaults.
+READER_COLUMNS: dict[str, type[pl.DataType]] = {
+    name: {str: pl.String, float: pl.Float64, bool: pl.Boolean}[kind] for name, kind in READ_OPTIONS.items()
+}
 #: Metadata columns copied from the manifest into every segment row.
 METADATA_COLUMNS = ("site", "lane", "wheel_path", "date", "device", "direction", "pavement", "speed_kmh")
 #: Prefix of optional measured-noise columns: ``noise_<centre frequency in Hz>`` in dB, e.g.
@@ -25,78 +41,124 @@ METADATA_COLUMNS = ("site", "lane", "wheel_path", "date", "device", "direction",
 #: :func:`roadtex.calibrate_modulus` (join on ``run_id``); the bulk job does not use them.
 NOISE_PREFIX = "noise_"
 
-SEGMENT_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "segment": pl.Int64(),
-    "youngs_modulus": pl.Float64(),      # Pa
-    "start": pl.Float64(),               # m, position of the segment's first point in the run
-    "end": pl.Float64(),                 # m, start + segment length
-    **{name: (pl.Float64() if name == "speed_kmh" else pl.String()) for name in METADATA_COLUMNS},
-    "mpd": pl.Float64(),                 # m, mean of the valid ISO 13473-1 baselines inside the segment
-    "rms_height": pl.Float64(),          # m, of the segment as solved
-    "contact_fraction": pl.Float64(),    # share of the segment length in contact (0..1)
-    "mean_penetration": pl.Float64(),    # m, mean of (highest point - rubber surface)
-    "max_penetration": pl.Float64(),     # m, deepest the rubber reaches below the highest point
-    "mean_gap": pl.Float64(),            # m, mean of (rubber surface - road): texture left unfilled
-    "max_pressure": pl.Float64(),        # Pa
-    "residual": pl.Float64(),            # solver residual (relative, see roadtex.contact's tol)
-    "iterations": pl.Int64(),
-    "converged": pl.Boolean(),
+Columns = dict[str, tuple[pl.DataType, str | None]]
+
+_METADATA: Columns = {name: ((pl.Float64(), "km/h") if name == "speed_kmh" else (pl.String(), None))
+                      for name in METADATA_COLUMNS}
+
+SEGMENT_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "start": (pl.Float64(), "m"),                 # position of the segment's first point in the run
+    "end": (pl.Float64(), "m"),                   # start + segment length
+    **_METADATA,
+    "mpd": (pl.Float64(), "m"),                   # mean of the valid ISO 13473-1 baselines inside; null if none
+    "rms_height": (pl.Float64(), "m"),            # of the segment as solved
+    "contact_fraction": (pl.Float64(), "1"),      # share of the segment length in contact
+    "mean_penetration": (pl.Float64(), "m"),      # mean of (highest point - rubber surface)
+    "max_penetration": (pl.Float64(), "m"),       # deepest the rubber reaches below the highest point
+    "mean_gap": (pl.Float64(), "m"),              # mean of (rubber surface - road): texture left unfilled
+    "max_pressure": (pl.Float64(), "Pa"),
+    "residual": (pl.Float64(), "1"),              # solver residual (relative, see roadtex.contact's tol)
+    "iterations": (pl.Int64(), "count"),
+    "converged": (pl.Boolean(), None),
 }
-BAND_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "segment": pl.Int64(),
-    "youngs_modulus": pl.Float64(),      # Pa
-    "band": pl.Int64(),                  # ISO band index n: centre 1000 / 10^(n/10) mm
-    "label": pl.String(),                # nominal centre wavelength as acousticians write it (mm)
-    "centre_wavelength": pl.Float64(),   # m, exact
-    "frequency": pl.Float64(),           # Hz at the run's speed (f = V / wavelength); null without a speed
-    "texture_level": pl.Float64(),       # dB re 1 um, original profile segment
-    "enveloped_level": pl.Float64(),     # dB re 1 um, enveloped profile
-    "pressure_level": pl.Float64(),      # dB re roadtex.spectra.REFERENCE_PRESSURE
+BAND_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "band": (pl.Int64(), "1"),                    # ISO band index n: centre 1000 / 10^(n/10) mm
+    "label": (pl.String(), None),                 # nominal centre wavelength as acousticians write it (mm)
+    "centre_wavelength": (pl.Float64(), "m"),     # exact
+    "frequency": (pl.Float64(), "Hz"),            # at the run's speed (f = V / wavelength); null without a speed
+    "reported": (pl.Boolean(), None),             # within the standard's limits for this dx and segment length
+    "reason": (pl.String(), None),                # why a band is not reported (null when it is)
+    "texture_level": (pl.Float64(), "dB re 1 um"),     # original profile segment
+    "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
+    "pressure_level": (pl.Float64(), "dB re 1 Pa"),
 }
-RUN_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "path": pl.String(),
-    "format": pl.String(),               # as given in the manifest (null: guessed from the file)
-    "points": pl.Int64(),                # after conditioning
-    "length": pl.Float64(),              # m, after conditioning
-    "dx": pl.Float64(),                  # m
-    "segments": pl.Int64(),
-    "mpd": pl.Float64(),                 # m, ISO 13473-1 over the whole run
-    "dropout_fraction": pl.Float64(),    # of the raw profile
+RUN_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "path": (pl.String(), None),
+    "format": (pl.String(), None),                # as given in the manifest (null: guessed from the file)
+    "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
+    "dx": (pl.Float64(), "m"),                    # the sampling interval the run was solved at (the job's)
+    "points": (pl.Int64(), "count"),              # after conditioning
+    "raw_length": (pl.Float64(), "m"),            # as read
+    "trimmed_length": (pl.Float64(), "m"),        # cut away as reference plates (and beyond them)
+    "length": (pl.Float64(), "m"),                # after conditioning
+    "plates": (pl.String(), None),                # where reference plates were found ("none")
+    "dropout_fraction": (pl.Float64(), "1"),      # readings missing in the file, after trimming
+    "spike_fraction": (pl.Float64(), "1"),        # readings removed as spikes (then interpolated)
+    "outlier_fraction": (pl.Float64(), "1"),      # readings removed as gross outliers (drop-out codes)
+    "conditioning_warnings": (pl.String(), None),  # what exceeded the warning thresholds (null: nothing)
+    "segments": (pl.Int64(), "count"),
+    "mpd": (pl.Float64(), "m"),                   # ISO 13473-1 over the whole run; null without a valid baseline
+    "mpd_valid": (pl.Boolean(), None),            # ISO validity: at least half the baselines valid
+    "mpd_valid_baselines": (pl.Int64(), "count"),
+    "mpd_baselines": (pl.Int64(), "count"),
 }
-ERROR_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "path": pl.String(),
-    "stage": pl.String(),                # read, condition, mpd, segment, spectra, solve
-    "error_type": pl.String(),
-    "message": pl.String(),
+ERROR_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "path": (pl.String(), None),
+    "stage": (pl.String(), None),                 # read, condition, mpd, segment, spectra, solve
+    "error_type": (pl.String(), None),
+    "message": (pl.String(), None),
 }
-PROFILE_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "youngs_modulus": pl.Float64(),      # Pa
-    "position": pl.Float64(),            # m
-    "height": pl.Float64(),              # m, conditioned road profile
-    "envelope": pl.Float64(),            # m, stitched enveloped profile
-    "pressure": pl.Float64(),            # Pa, stitched contact pressure
+PROFILE_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "position": (pl.Float64(), "m"),
+    "height": (pl.Float64(), "m"),                # conditioned road profile
+    "envelope": (pl.Float64(), "m"),              # stitched enveloped profile
+    "pressure": (pl.Float64(), "Pa"),             # stitched contact pressure
 }
-EXAMPLE_SCHEMA: dict[str, pl.DataType] = {
-    "run_id": pl.String(),
-    "segment": pl.Int64(),               # the run's middle segment
-    "youngs_modulus": pl.Float64(),      # Pa
-    "dx": pl.Float64(),                  # m
-    "position": pl.Float64(),            # m, along the run
-    "height": pl.Float64(),              # m, the segment as solved (its line removed)
-    "envelope": pl.Float64(),            # m, enveloped profile
-    "pressure": pl.Float64(),            # Pa, contact pressure
+EXAMPLE_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),             # the run's middle segment
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "dx": (pl.Float64(), "m"),
+    "position": (pl.Float64(), "m"),              # along the run
+    "height": (pl.Float64(), "m"),                # the segment as solved (its line removed)
+    "envelope": (pl.Float64(), "m"),              # enveloped profile
+    "pressure": (pl.Float64(), "Pa"),             # contact pressure
 }
-EDGE_EFFECT_SCHEMA: dict[str, pl.DataType] = {
-    "model": pl.String(),                # "finite", "periodic" or "flat punch (exact)"
-    "index": pl.Int64(),                 # element
-    "x": pl.Float64(),                   # m, element centre
-    "pressure": pl.Float64(),            # Pa
-    "pressure_ratio": pl.Float64(),      # p / P
-    "youngs_modulus": pl.Float64(),      # Pa
-    "mean_pressure": pl.Float64(),       # Pa
+EDGE_EFFECT_COLUMNS: Columns = {
+    "model": (pl.String(), None),                 # "finite", "periodic" or "flat punch (exact)"
+    "index": (pl.Int64(), "count"),               # element
+    "x": (pl.Float64(), "m"),                     # element centre
+    "pressure": (pl.Float64(), "Pa"),
+    "pressure_ratio": (pl.Float64(), "1"),        # p / P
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "mean_pressure": (pl.Float64(), "Pa"),
+}
+
+
+def schema(columns: Columns) -> dict[str, pl.DataType]:
+    """The polars schema of a table declared as ``column: (type, unit)``."""
+    return {name: dtype for name, (dtype, _) in columns.items()}
+
+
+def units(columns: Columns) -> dict[str, str]:
+    """Column -> unit of the numeric columns of a table declared as ``column: (type, unit)``."""
+    return {name: unit for name, (_, unit) in columns.items() if unit is not None}
+
+
+def parquet_metadata(columns: Columns) -> dict[str, str]:
+    """The key-value metadata every Parquet file of the job carries: ``units`` as JSON."""
+    return {"units": json.dumps(units(columns), sort_keys=True)}
+
+
+SEGMENT_SCHEMA = schema(SEGMENT_COLUMNS)
+BAND_SCHEMA = schema(BAND_COLUMNS)
+RUN_SCHEMA = schema(RUN_COLUMNS)
+ERROR_SCHEMA = schema(ERROR_COLUMNS)
+PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
+EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
+EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
+#: Each table the job writes, by file stem, with its declaration.
+TABLES: dict[str, Columns] = {
+    "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,
+    "profiles": PROFILE_COLUMNS, "examples": EXAMPLE_COLUMNS, "edge_effect": EDGE_EFFECT_COLUMNS,
 }

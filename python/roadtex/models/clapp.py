@@ -13,6 +13,7 @@ import numpy as np
 from roadtex import _core
 from roadtex._checks import as_float_array, positive_int, to_float, whole_number
 from roadtex.models.results import ContactMeasures
+from roadtex.profiles.plausibility import warn_if_implausible_texture
 
 
 @dataclass(frozen=True)
@@ -129,5 +130,7 @@ def clapp(
                             to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
     sub = positive_int(sub_profile, "sub_profile")
     lap = whole_number(overlap, "overlap", 0)
+    if np.isfinite(z).all():
+        warn_if_implausible_texture(z, dx_f, "heights")
     pressure, envelope, count, sweeps = _core.clapp(z, dx_f, e_f, nu_f, p_f, sub, lap, bool(wrap))
     return ClappResult(z, dx_f, pressure, envelope, e_f, nu_f, p_f, sub, lap, bool(wrap), count, sweeps)

@@ -1,5 +1,21 @@
 """Conditioning steps for a :class:`~roadtex.profiles.profile.Profile`, in ISO 13473-1's order:
-reference plates trimmed, resampling, spikes, drop-outs, filters, detrending.
+reference plates trimmed, resampling, spikes, drop-outs, filters, detrending; and :func:`clean`, the
+bulk job's cleaning before the contact model: reference plates and spikes, found by criteria that
+mean the same at any sampling interval, and counted so that nothing is removed silently.
+
+- **Reference plates** (stationary profilometers such as CAPTIF's put one at each end) are long,
+  flat stretches far above the road at an end of the run, often mostly drop-outs (the laser loses
+  the plate's top). A single high reading is never a plate.
+- **Spikes** are readings that depart from the median of the readings within half a millimetre
+  (ISO 13473-1's 0.5 mm grid spacing) by at least ``alpha`` x 0.5 mm: on a 0.5 mm grid this flags
+  the same isolated spikes as the standard's slope criterion (a jump of alpha x 0.5 mm between
+  neighbours), but a running median keeps steps (stone edges) whatever the sampling, where the
+  standard's criterion applied to 0.04 mm samples would flag every steep edge. Readings far outside
+  the run's own height range (a laser's "deep" drop-out code such as -850 mm, over any width) are
+  removed too.
+
+What is removed becomes a drop-out (NaN), filled later by interpolation; :class:`CleaningSummary`
+holds the counts the bulk job reports per run.
 
 Each function returns a new profile and records one history line; :class:`Profile`'s methods of
 the same names call them. Filters are scipy.signal's zero-phase Butterworth sections.
@@ -8,13 +24,15 @@ the same names call them. Filters are scipy.signal's zero-phase Butterworth sect
 from __future__ import annotations
 
 import math
+import warnings
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from scipy import signal
+from scipy import ndimage, signal
 
 from roadtex._checks import finite_number, positive
-from roadtex.errors import InvalidInputError
+from roadtex.errors import ConditioningWarning, InvalidInputError
 from roadtex.profiles.trend import line_fits
 
 if TYPE_CHECKING:
@@ -26,39 +44,65 @@ def format_number(value: float) -> str:
     return f"{value:.6g}"
 
 
-def trim_reference_plates(profile: Profile, *, threshold: float = 0.02, margin: float = 0.002) -> Profile:
+#: A plate is at least this far above the road's median height (m).
+PLATE_HEIGHT = 0.02
+#: ... spans at least this length (m), drop-outs inside it included ...
+PLATE_MIN_LENGTH = 0.01
+#: ... holds at least this many readings above PLATE_HEIGHT ...
+PLATE_MIN_READINGS = 5
+#: ... whose spread about their median is at most this (m): plates are flat ...
+PLATE_MAX_SPREAD = 0.005
+#: ... and starts (ends) within this distance (m) of the run's start (end).
+PLATE_END_ZONE = 0.25
+
+def find_reference_plates(profile: Profile, *, height: float = PLATE_HEIGHT, min_length: float = PLATE_MIN_LENGTH,
+                          min_readings: int = PLATE_MIN_READINGS, max_spread: float = PLATE_MAX_SPREAD,
+                          end_zone: float = PLATE_END_ZONE) -> tuple[float, float, list[str]]:
+    """The road between the reference plates: (first kept position, last kept position, plates found).
+
+    A plate is a stretch of readings more than ``height`` (m) above the road's median, drop-outs
+    inside it included, at least ``min_length`` (m) long, with at least ``min_readings`` such
+    readings spread by at most ``max_spread`` (m) about their median, lying within ``end_zone`` (m)
+    of the run's start or end. Everything from the run's end to the plate's inner edge is cut.
+    """
+    z, x = profile.heights, profile.positions
+    median = float(np.nanmedian(z[::7]))
+    high = z > median + positive(height, "height", "m")        # NaN compares False
+    candidate = high | np.isnan(z)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], candidate.astype(np.int8), [0]])))
+    lo, hi, found = float(x[0]), float(x[-1]), []
+    for start, stop in zip(edges[::2], edges[1::2]):
+        readings = z[start:stop][high[start:stop]]
+        if readings.size < min_readings or x[stop - 1] - x[start] + profile.dx < min_length:
+            continue
+        if float(np.median(np.abs(readings - np.median(readings)))) * 1.4826 > max_spread:
+            continue
+        if x[start] - x[0] <= end_zone and x[stop - 1] < 0.5 * (x[0] + x[-1]):
+            lo = max(lo, float(x[min(stop, x.size - 1)]))
+            found.append(f"start ({format_number(float(x[start]))}..{format_number(float(x[stop - 1]))} m)")
+        elif x[-1] - x[stop - 1] <= end_zone and x[start] > 0.5 * (x[0] + x[-1]):
+            hi = min(hi, float(x[max(start - 1, 0)]))
+            found.append(f"end ({format_number(float(x[start]))}..{format_number(float(x[stop - 1]))} m)")
+    return lo, hi, found
+
+
+def trim_reference_plates(profile: Profile, *, threshold: float = PLATE_HEIGHT, margin: float = 0.002,
+                          name: str = "profile") -> Profile:
     """Cuts away reference plates at the ends; documented at :meth:`Profile.trim_reference_plates`."""
-    threshold_f = positive(threshold, "threshold")
     margin_f = finite_number(margin, "margin")
     if margin_f < 0:
         raise InvalidInputError(f"margin must be >= 0 (m), got {margin!r}")
-    z, x = profile.heights, profile.positions
-    # the median only sets a reference level 20 mm below plates: every 7th reading is plenty
-    plate = z > np.nanmedian(z[::7]) + threshold_f        # NaN compares False
-    middle = int(np.searchsorted(x, 0.5 * (x[0] + x[-1])))
-    lo, hi = x[0], x[-1]
-    found = []
-    first_half = np.flatnonzero(plate[:middle])
-    if first_half.size:
-        tail = z[first_half[-1]:]
-        after = np.flatnonzero(~np.isnan(tail) & ~plate[first_half[-1]:])
-        if after.size:
-            lo = x[first_half[-1] + after[0]] + margin_f
-            found.append("start")
-    second_half = np.flatnonzero(plate[middle:]) + middle
-    if second_half.size:
-        before = np.flatnonzero(~np.isnan(z[:second_half[0]]) & ~plate[:second_half[0]])
-        if before.size:
-            hi = x[before[-1]] - margin_f
-            found.append("end")
-    # what is kept is one run of samples: slice it rather than copy it
+    lo, hi, found = find_reference_plates(profile, height=threshold)
+    if not found:
+        return profile.derive(profile.heights, step="trim_reference_plates(): plates none found, the profile is kept whole")
+    x, z = profile.positions, profile.heights
+    lo, hi = (lo + margin_f if lo > x[0] else lo), (hi - margin_f if hi < x[-1] else hi)
     first, stop = int(np.searchsorted(x, lo, "left")), int(np.searchsorted(x, hi, "right"))
     if stop - first < 2 or np.isnan(z[first:stop]).all():
-        raise InvalidInputError(f"trimming reference plates leaves no road between {lo:.6g} m and {hi:.6g} m")
+        raise InvalidInputError(f"{name}: trimming reference plates leaves no road between {lo:.6g} m and {hi:.6g} m")
     keep = slice(first, stop)
-    where = " and ".join(found) if found else "none found"
-    step = (f"trim_reference_plates(threshold={format_number(threshold_f)} m, margin={format_number(margin_f)} m): "
-            f"plates at {where}; kept {format_number(float(x[first]))}..{format_number(float(x[stop - 1]))} m")
+    step = (f"trim_reference_plates(threshold={format_number(threshold)} m, margin={format_number(margin_f)} m): "
+            f"plates at {' and '.join(found)}; kept {format_number(float(x[first]))}..{format_number(float(x[stop - 1]))} m")
     return profile.derive(z[keep], x[keep], step=step)
 
 
@@ -82,6 +126,9 @@ def fill_dropouts(profile: Profile) -> Profile:
     missing = np.isnan(z)
     if not missing.any():
         return profile.derive(z.copy(), step="fill_dropouts(): no drop-outs")
+    if missing.all():
+        raise InvalidInputError("every reading is a drop-out (or was removed as a spike): nothing to interpolate from; "
+                                "are the heights in the unit the reader assumed?")
     filled = z.copy()
     filled[missing] = np.interp(profile.positions[missing], profile.positions[~missing], z[~missing])
     return profile.derive(filled, step=f"fill_dropouts(): {int(missing.sum())} readings interpolated linearly")
@@ -149,3 +196,101 @@ def require_grid(profile: Profile, what: str) -> None:
         raise InvalidInputError(f"{what} needs a profile without drop-outs: call fill_dropouts() or conditioned() first")
     if not profile.is_uniform:
         raise InvalidInputError(f"{what} needs uniform sampling: call resample(dx) or conditioned() first")
+
+
+#: Half-width (m) of the running median of the spike criterion: ISO 13473-1's 0.5 mm grid spacing.
+SPIKE_WINDOW = 0.5e-3
+#: A reading further than this many robust standard deviations (1.4826 x MAD) of the run's heights
+#: from its median, and at least OUTLIER_MIN_DISTANCE (m) away, is a gross outlier (a drop-out code).
+OUTLIER_SIGMAS = 12.0
+OUTLIER_MIN_DISTANCE = 0.015
+#: The bulk job warns (and records the warning) when more than these shares of a run's readings are
+#: removed as spikes or were drop-outs, or more than this share of its length was trimmed. The
+#: first two are ISO 13473-1's per-segment validity limits for MPD.
+WARN_SPIKE_FRACTION = 0.05
+WARN_DROPOUT_FRACTION = 0.10
+WARN_TRIMMED_FRACTION = 0.25
+
+
+@dataclass(frozen=True)
+class CleaningSummary:
+    """What cleaning removed from one run (lengths in m, shares 0..1 of the readings kept after trimming)."""
+
+    raw_length: float
+    trimmed_length: float
+    plates: str
+    spike_fraction: float
+    outlier_fraction: float
+    dropout_fraction: float
+    warnings: tuple[str, ...]
+
+
+def spike_mask(profile: Profile, alpha: float) -> np.ndarray:
+    """Readings that are spikes by the sampling-independent criterion of this module (True = spike)."""
+    alpha_f = positive(alpha, "alpha", "a slope, no unit")
+    z = profile.heights
+    valid = ~np.isnan(z)
+    # the window counts readings: raw files are near-uniform, so dx converts the 0.5 mm to a count
+    half = max(1, int(round(SPIKE_WINDOW / profile.dx)))
+    filled = z.copy()
+    if not valid.all():
+        filled[~valid] = np.interp(profile.positions[~valid], profile.positions[valid], z[valid])
+    local = ndimage.median_filter(filled, size=2 * half + 1, mode="nearest")
+    return valid & (np.abs(z - local) >= alpha_f * SPIKE_WINDOW)
+
+
+def outlier_mask(profile: Profile) -> np.ndarray:
+    """Readings far outside the run's own height range (see :data:`OUTLIER_SIGMAS`), True = outlier."""
+    z = profile.heights
+    median = float(np.nanmedian(z))
+    spread = 1.4826 * float(np.nanmedian(np.abs(z - median)))
+    limit = max(OUTLIER_SIGMAS * spread, OUTLIER_MIN_DISTANCE)
+    with np.errstate(invalid="ignore"):
+        return np.abs(z - median) > limit
+
+
+def clean(profile: Profile, *, spike_alpha: float | None = 3.0, trim_plates: bool = True,
+          name: str = "profile", warn: bool = True) -> tuple[Profile, CleaningSummary]:
+    """Trims reference plates, then flags gross outliers and spikes as drop-outs (NaN).
+
+    Returns the cleaned profile (same sampling; drop-outs not yet filled) and what was removed.
+    Warns (:class:`~roadtex.errors.ConditioningWarning`; with ``warn=False`` the notes are only
+    kept in the summary's ``warnings``) beyond the documented shares
+    (:data:`WARN_SPIKE_FRACTION`, :data:`WARN_DROPOUT_FRACTION`, :data:`WARN_TRIMMED_FRACTION`).
+
+    Raises:
+        InvalidInputError: nothing is left between the plates (the message names ``name``).
+    """
+    raw_length = profile.length
+    plates = "none"
+    if trim_plates:
+        before = len(profile)
+        profile = trim_reference_plates(profile, name=name)
+        plates = profile.history[-1].split("plates at ", 1)[1].split("; kept", 1)[0] if len(profile) != before else "none"
+    z = profile.heights
+    dropouts = int(np.count_nonzero(np.isnan(z)))
+    outliers = outlier_mask(profile)
+    spikes = np.zeros(z.size, dtype=bool)
+    if spike_alpha is not None:
+        spikes = spike_mask(profile.derive(np.where(outliers, np.nan, z)), spike_alpha) & ~outliers
+    removed = outliers | spikes
+    profile = profile.derive(np.where(removed, np.nan, z) if removed.any() else z, step=(
+        f"clean(spike_alpha={spike_alpha}): {int(outliers.sum())} gross outliers and {int(spikes.sum())} spikes "
+        f"(median over +-{format_number(SPIKE_WINDOW * 1e3)} mm) flagged as drop-outs"))
+    n = z.size
+    summary = CleaningSummary(raw_length=raw_length, trimmed_length=raw_length - profile.length, plates=plates,
+                              spike_fraction=float(spikes.sum()) / n, outlier_fraction=float(outliers.sum()) / n,
+                              dropout_fraction=dropouts / n, warnings=())
+    notes = []
+    if summary.spike_fraction + summary.outlier_fraction > WARN_SPIKE_FRACTION:
+        notes.append(f"{100 * (summary.spike_fraction + summary.outlier_fraction):.1f} % of the readings removed as spikes "
+                     f"or outliers (warned above {100 * WARN_SPIKE_FRACTION:g} %)")
+    if summary.dropout_fraction > WARN_DROPOUT_FRACTION:
+        notes.append(f"{100 * summary.dropout_fraction:.1f} % of the readings are drop-outs "
+                     f"(warned above {100 * WARN_DROPOUT_FRACTION:g} %)")
+    if summary.trimmed_length > WARN_TRIMMED_FRACTION * raw_length:
+        notes.append(f"{summary.trimmed_length:.3g} m of {raw_length:.3g} m trimmed as reference plates "
+                     f"(warned above {100 * WARN_TRIMMED_FRACTION:g} % of the length)")
+    for note in notes if warn else ():
+        warnings.warn(f"{name}: {note}", ConditioningWarning, stacklevel=2)
+    return profile, CleaningSummary(**{**summary.__dict__, "warnings": tuple(notes)})

@@ -23,30 +23,43 @@ PLAUSIBLE_RMS = 0.25
 PLAUSIBLE_MEDIAN_SLOPE = 20.0
 
 
-def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3) -> None:
-    """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile.
+def implausible_texture(heights: np.ndarray, dx: float, name: str) -> str | None:
+    """Why ``heights`` (m; one row per segment) cannot be a road texture profile in metres, or None.
 
-    Looks at each row with its least-squares line removed. Rows with NaN or inf are left to the
-    input checks of the solver.
+    Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
+    readings' spread only. Used by every function that takes heights (a warning) and by the bulk
+    job (which refuses the run).
     """
-    rows = np.atleast_2d(heights)
+    rows = np.atleast_2d(np.asarray(heights, dtype=np.float64))
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
-        return
+        return None
     with np.errstate(all="ignore"):
-        detrended, _ = remove_lines(rows)
-        peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
-        rms = np.sqrt(np.mean(detrended**2, axis=1))
-        median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
+        if np.isnan(rows).any():
+            centred = rows - np.nanmedian(rows, axis=1, keepdims=True)
+            peak_to_valley = np.nanmax(centred, axis=1) - np.nanmin(centred, axis=1)
+            rms = np.sqrt(np.nanmean(centred**2, axis=1))
+            median_slope = np.nanmedian(np.abs(np.diff(rows, axis=1)), axis=1) / dx
+        else:
+            detrended, _ = remove_lines(rows)
+            peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
+            rms = np.sqrt(np.mean(detrended**2, axis=1))
+            median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
         bad = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
                | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
     if not bad.any():
-        return
+        return None
     first = int(np.argmax(bad))
-    where = f"{name} (segment {first}, {int(bad.sum())} of {bad.size} segments)" if heights.ndim == 2 else name
-    warnings.warn(
-        f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
-        f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
-        f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
-        "Heights and dx must be in metres: were the heights given in millimetres? Solving as given.",
-        ImplausibleTextureWarning, stacklevel=stacklevel)
+    where = f"{name} (segment {first}, {int(bad.sum())} of {bad.size} segments)" if rows.shape[0] > 1 else name
+    return (f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
+            f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
+            f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
+            "Heights and dx must be in metres: were the heights given in millimetres?")
+
+
+def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3) -> None:
+    """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
+    (see :func:`implausible_texture`); the computation goes on as given."""
+    reason = implausible_texture(heights, dx, name)
+    if reason is not None:
+        warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)

@@ -19,6 +19,7 @@ import numpy as np
 from roadtex._checks import finite_number, positive
 from roadtex.errors import InvalidInputError
 from roadtex.profiles import conditioning
+from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.segments import Segments, cut_segments
 
 # Above this magnitude (m) a height or position is a wrong unit or a corrupt file, not a road, and
@@ -104,7 +105,9 @@ class Profile:
         z = as_1d(heights, "heights")
         dx_f = positive(dx, "dx")
         x = finite_number(start, "start") + dx_f * np.arange(z.size)
-        return cls(z, x, dx_f, dict(metadata or {}), tuple(history))
+        profile = cls(z, x, dx_f, dict(metadata or {}), tuple(history))
+        warn_if_implausible_texture(profile.heights, dx_f, "heights")
+        return profile
 
     def derive(self, heights: np.ndarray, positions: np.ndarray | None = None, dx: float | None = None,
                step: str = "") -> "Profile":
@@ -145,12 +148,15 @@ class Profile:
         """Cuts away reference plates at the ends of the profile and everything outside them.
 
         Stationary profilometers such as CAPTIF's show calibration plates far above the road at both
-        ends; the road section of interest lies between them. A plate is any reading more than
-        ``threshold`` (m) above the median height; drop-outs inside a plate (the laser often loses
-        the plate's top) belong to it. On each half of the profile the plate nearest the centre is
-        found, and the profile keeps what lies between the last road reading before (after) the
-        plate, moved inwards by ``margin`` (m) to drop the plate's edge. A half without a plate is
-        left as it is; the step is still recorded.
+        ends; the road section of interest lies between them. A plate is a long, flat stretch far
+        from the road at an end of the run: readings more than ``threshold`` (m) above the median
+        height, drop-outs inside it included (the laser often loses the plate's top), at least
+        10 mm long, with at least 5 such readings spread by at most 5 mm, within 0.25 m of the
+        run's start or end (the constants ``PLATE_*`` of :mod:`roadtex.profiles.conditioning`).
+        A single high reading, or anything in the middle of the run, is never a plate: it is a
+        spike, for :meth:`remove_spikes` or :func:`roadtex.profiles.cleaning.clean`. The profile
+        keeps what lies between the plates, moved inwards by ``margin`` (m) to drop the plate's
+        edge. Without plates the profile is kept whole; the step is still recorded.
 
         Raises:
             ValueError: nothing would be left between the plates.
@@ -210,24 +216,28 @@ class Profile:
                     detrend: Literal["linear", "mean"] | None = "linear") -> "Profile":
         """The standard chain: a uniform, NaN-free profile ready for the contact model.
 
-        Steps, in the order ISO 13473-1 applies them before computing MPD:
-
         1. ``trim_plates``: :meth:`trim_reference_plates` (does nothing where there are none);
-        2. :meth:`resample` to ``dx`` (m; None keeps the profile's nominal dx) by interval averaging;
-        3. ``spike_alpha``: :meth:`remove_spikes` on the resampled profile (None skips it);
+        2. ``spike_alpha``: gross outliers and spikes flagged as drop-outs on the raw readings, by
+           :func:`roadtex.profiles.conditioning.clean`'s criterion (a reading at least alpha x
+           0.5 mm away from the median of the readings within 0.5 mm), which means what
+           ISO 13473-1's alpha means on its 0.5 mm grid whatever the sampling (None skips it);
+        3. :meth:`resample` to ``dx`` (m; None keeps the profile's nominal dx) by interval averaging;
         4. :meth:`fill_dropouts`, linear, ends held at the nearest valid value;
         5. ``lowpass_wavelength``: optional :meth:`lowpass` (m). ISO applies 2.4 mm for MPD; it is
            off by default because the contact model needs the short wavelengths;
         6. ``detrend``: remove the least-squares line (``"linear"``) or the mean, or None.
 
-        The spike criterion compares adjacent samples, so its alpha means what the standard means
-        only at a 0.5 or 1 mm spacing; at a finer dx raise alpha or pass None.
+        :func:`roadtex.profiles.conditioning.clean` does steps 1 and 2 and also returns what they
+        removed; the bulk job reports it per run.
         """
-        profile = self.trim_reference_plates() if trim_plates else self
-        profile = profile.resample(profile.dx if dx is None else dx)
-        if spike_alpha is not None:
-            profile = profile.remove_spikes(spike_alpha)
-        profile = profile.fill_dropouts()
+        profile, _ = conditioning.clean(self, spike_alpha=spike_alpha, trim_plates=trim_plates)
+        return profile.finished(dx=dx, lowpass_wavelength=lowpass_wavelength, detrend=detrend)
+
+    def finished(self, *, dx: float | None = None, lowpass_wavelength: float | None = None,
+                 detrend: Literal["linear", "mean"] | None = "linear") -> "Profile":
+        """Steps 3 to 6 of :meth:`conditioned`: resampled to ``dx`` (m; None: the nominal dx),
+        drop-outs filled, optionally low-passed (m) and detrended."""
+        profile = self.resample(self.dx if dx is None else dx).fill_dropouts()
         if lowpass_wavelength is not None:
             profile = profile.lowpass(lowpass_wavelength)
         if detrend is not None:

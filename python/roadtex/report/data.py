@@ -81,7 +81,7 @@ def load_results(results_dir: Path) -> Results:
     if segments.height == 0:
         raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed (see errors.parquet)")
     errors_path = results_dir / "errors.parquet"
-    return Results(results_dir, segments, pl.read_parquet(results_dir / "bands.parquet"),
+    return Results(results_dir, segments, read_reported_bands(results_dir / "bands.parquet"),
                    pl.read_parquet(results_dir / "runs.parquet"),
                    pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
                    pl.read_parquet(results_dir / "examples.parquet"),
@@ -117,3 +117,9 @@ def load_examples(results: Results, max_groups: int = 4) -> list[Example]:
             {e: rows.filter(pl.col("youngs_modulus") == e)["envelope"].to_numpy() for e in moduli},
             {e: rows.filter(pl.col("youngs_modulus") == e)["pressure"].to_numpy() for e in moduli}))
     return examples
+
+
+def read_reported_bands(path: Path) -> pl.DataFrame:
+    """bands.parquet's reported bands (the table keeps every band, with ``reported`` and ``reason``)."""
+    bands = pl.read_parquet(path)
+    return bands.filter(pl.col("reported")) if "reported" in bands.columns else bands

@@ -9,6 +9,7 @@ import numpy as np
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, ProfileFormatError
 from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
@@ -18,6 +19,12 @@ from roadtex.profiles.readers.text import decode_text, nominal_dx, sorted_sample
 
 #: Formats :func:`read_profile` reads.
 FORMATS = ("captif", "csv", "npy", "parquet")
+#: The options :func:`read_profile` takes, with their types (the bulk job's manifest columns of
+#: the same names carry them per run).
+READ_OPTIONS: dict[str, type] = {
+    "distance_column": str, "height_column": str, "distance_unit": str, "height_unit": str, "dx": float,
+    "start": float, "delimiter": str, "decimal": str, "encoding": str, "sort": bool,
+}
 
 
 def guess_format(path: Path, head: bytes) -> str:
@@ -61,7 +68,9 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     Options: ``distance_column``, ``height_column`` (name or index), ``distance_unit``,
     ``height_unit`` (``"m"``, ``"mm"``, ``"um"``, ...), ``dx`` (m, for heights-only data; also the
     nominal dx to record), ``start`` (m, first position for heights-only data), ``delimiter``,
-    ``encoding`` (text files; UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
+    ``decimal`` (``"."`` or ``","``; a decimal comma is recognised in ``;``- or tab-separated
+    files when every comma in the first rows sits inside a number), ``encoding`` (text files;
+    UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
     ``sort`` (default True: out-of-order rows are sorted by position; False refuses them).
 
     Rows are sorted by position; exact duplicates that agree are merged.
@@ -73,11 +82,9 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     """
     file = Path(path)
     name = file.name
-    known = {"distance_column", "height_column", "distance_unit", "height_unit", "dx", "start",
-             "delimiter", "encoding", "sort"}
-    unknown = set(options) - known
+    unknown = set(options) - set(READ_OPTIONS)
     if unknown:
-        raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(known)}")
+        raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
     if format is not None and format not in FORMATS:
         raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
     if not file.is_file():
@@ -87,6 +94,17 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     with file.open("rb") as handle:
         head = handle.read(8192)
     fmt = format or guess_format(file, head)
+    try:
+        return read_as(file, name, fmt, options)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        # every message names the file, whichever helper raised it
+        if str(exc).startswith(name):
+            raise
+        raise type(exc)(f"{name}: {exc}") from None
+
+
+def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Profile:
+    """Reads ``file`` in format ``fmt``; see :func:`read_profile`."""
     if fmt == "npy":
         positions, heights, metadata, history, dx = read_npy(file, name, options)
         encoding = None
@@ -114,7 +132,9 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     encoding_note = f", {encoding}" if encoding not in (None, "utf-8") else ""
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
-    return Profile(heights, positions, dx_f, metadata, tuple(history))
+    profile = Profile(heights, positions, dx_f, metadata, tuple(history))
+    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4)
+    return profile
 
 
-__all__ = ["FORMATS", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "read_profile"]

@@ -36,9 +36,21 @@ def sniff_separator(lines: list[bytes]) -> str:
     return " "
 
 
-def is_number(text: str) -> bool:
+def sniff_decimal(lines: list[bytes], separator: str) -> str:
+    """',' when every field of the sample rows that holds a comma reads as a number with a decimal
+    comma (a European spreadsheet export: ``12,5;-3,015``), else '.'."""
+    if separator == ",":
+        return "."
+    fields = [f.strip() for line in lines for f in line.decode("utf-8", "replace").split(separator) if f.strip()]
+    with_comma = [f for f in fields if "," in f]
+    if with_comma and all(re.fullmatch(r"[-+]?\d*,\d+([eE][-+]?\d+)?", f) for f in with_comma):
+        return ","
+    return "."
+
+
+def is_number(text: str, decimal: str = ".") -> bool:
     try:
-        float(text)
+        float(text.replace(",", ".") if decimal == "," else text)
         return True
     except ValueError:
         return text.strip().lower() in ("nan", "", "na", "n/a", "null", "-")
@@ -87,8 +99,13 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         wide = [f for f in re.split(r"\s{2,}|\t", header_text.strip()) if f]
         if len(wide) == columns:
             rest[0] = "\t".join(wide).encode()
+    decimal = options.get("decimal") or sniff_decimal(rest[1:6] or rest[:1], separator)
+    if decimal not in (".", ","):
+        raise ProfileFormatError(f"{name}: decimal must be '.' or ',', got {decimal!r}")
+    if decimal == "," and separator == ",":
+        raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give delimiter=")
     first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
-    has_header = not all(is_number(f) for f in first)
+    has_header = not all(is_number(f, decimal) for f in first)
     if has_header and len(rest) > 1:
         data_columns = len(rest[1].decode("utf-8", "replace").split(separator))
         if data_columns != len(first):
@@ -108,7 +125,7 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
             raise ProfileFormatError(f"{name}: the last line {last[:60].decode('utf-8', 'replace')!r} has fewer than "
                              f"{n_columns} fields and no line end: the file looks truncated")
-    table, absent = parse_table(body, separator, n_columns, name, first_data_line - 1)
+    table, absent = parse_table(body, separator, n_columns, name, first_data_line - 1, decimal_comma=decimal == ",")
     if table.shape[0] == 0:
         raise ProfileFormatError(f"{name}: no data rows")
     if has_header:

@@ -148,13 +148,14 @@ def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tup
 
 
 def parse_table(data: bytes, separator: str, n_columns: int, name: str,
-                 first_line: int) -> tuple[np.ndarray, np.ndarray]:
+                 first_line: int, *, decimal_comma: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Numeric table (rows, n_columns) from delimited UTF-8 text, and the mask of missing fields
     (empty or absent; they are NaN in the table, like the written ``NaN`` drop-outs)."""
     schema = {f"c{i}": pl.Float64 for i in range(n_columns)}
     try:
         frame = pl.read_csv(io.BytesIO(data), has_header=False, separator=separator, schema=schema,
-                            null_values=["", "NA", "N/A", "null", "-"], comment_prefix=None, quote_char='"')
+                            null_values=["", "NA", "N/A", "null", "-"], comment_prefix=None, quote_char='"',
+                            decimal_comma=decimal_comma)
     except (Exception, pl.exceptions.PanicException) as exc:
         # polars raises ComputeError/NoDataError with a long hint (keep its first line), and on some
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
