@@ -28,15 +28,12 @@ def line_fits(values: np.ndarray, positions: np.ndarray | None = None) -> tuple[
     x = np.arange(n, dtype=np.float64) if positions is None else np.asarray(positions, dtype=np.float64)
     centred = x - x.mean(axis=-1, keepdims=True)
     mean = z.mean(axis=-1, keepdims=True)
-    if centred.ndim == 1:
-        spread = float(centred @ centred)
-        covariance = ((z - mean) @ centred)[..., None]
-        slope = covariance / spread if spread > 0 else np.zeros_like(covariance)
-    else:
-        spread_rows = np.sum(centred * centred, axis=-1, keepdims=True)
-        covariance = np.sum(centred * (z - mean), axis=-1, keepdims=True)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slope = np.where(spread_rows > 0, covariance / spread_rows, 0.0)
+    # Plain sums, never a matrix product: BLAS splits products over its threads, and the thread
+    # count (all cores here, one in a Dask worker) would change the last bits of every result.
+    spread_rows = np.sum(centred * centred, axis=-1, keepdims=True)
+    covariance = np.sum(centred * (z - mean), axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slope = np.where(spread_rows > 0, covariance / spread_rows, 0.0)
     return mean, slope, centred
 
 
