@@ -1,0 +1,109 @@
+"""Issue 14's bulk-job outputs: units in every Parquet file, every band kept with its reason, MPD with
+its validity, reader options from the manifest, the CLI's unit checks, one sampling interval, and the
+Dask engine's tables bit for bit the local engine's on real data."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+from polars.testing import assert_frame_equal
+
+import roadtex
+from roadtex.archive import ProcessingOptions, process
+from roadtex.archive.schemas import TABLES, units
+from roadtex.profiles import write_profile
+from roadtex.profiles.pavements import synthetic_pavement
+
+ROADTEX = Path(sys.executable).parent / "roadtex"
+OPTIONS = ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.128, tol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """Two runs of one road at 0.25 and 0.5 mm, one as heights-only npy with its dx in the manifest."""
+    folder = tmp_path_factory.mktemp("mixed")
+    fine = synthetic_pavement("dense_asphalt", 0.6, 0.25e-3, seed=4)
+    write_profile(fine, folder / "fine.csv")
+    coarse = fine.resample(0.5e-3)
+    np.save(folder / "coarse.npy", coarse.heights)
+    manifest = folder / "manifest.csv"
+    pl.DataFrame({"path": ["fine.csv", "coarse.npy"], "dx": [None, "0.0005"]}).write_csv(manifest)
+    out = tmp_path_factory.mktemp("out")
+    summary = process(manifest, out, OPTIONS, quiet=True)
+    assert summary.failed_on_record == 0, pl.read_parquet(out / "errors.parquet")
+    return folder, out
+
+
+def test_every_parquet_file_states_the_unit_of_every_numeric_column(mixed) -> None:
+    _, out = mixed
+    for name, columns in TABLES.items():
+        path = out / f"{name}.parquet"
+        if not path.exists():
+            continue
+        stated = json.loads(pl.read_parquet_metadata(path)["units"])
+        assert stated == units(columns)
+        numeric = [c for c, t in pl.read_parquet_schema(path).items() if t.is_numeric()]
+        assert set(numeric) <= set(stated), f"{name}: {set(numeric) - set(stated)} without a unit"
+
+
+def test_every_band_is_kept_with_reported_and_reason(mixed) -> None:
+    _, out = mixed
+    bands = pl.read_parquet(out / "bands.parquet")
+    table = roadtex.band_table(0.25e-3, 0.128)
+    assert set(bands["band"].unique()) == set(table["band"])
+    unreported = bands.filter(~pl.col("reported"))
+    assert unreported.height > 0 and unreported["reason"].null_count() == 0
+    assert bands.filter(pl.col("reported"))["reason"].null_count() == bands["reported"].sum()
+    assert not bands.select(pl.col("texture_level", "enveloped_level", "pressure_level").is_nan().any()).row(0)[0]
+
+
+def test_one_sampling_interval_for_every_run(mixed) -> None:
+    _, out = mixed
+    runs = pl.read_parquet(out / "runs.parquet")
+    assert sorted(runs["file_dx"].to_list()) == pytest.approx([0.25e-3, 0.5e-3])
+    assert runs["dx"].to_list() == pytest.approx([0.25e-3, 0.25e-3])
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    assert plan["dx"] == pytest.approx(0.25e-3)
+
+
+def test_mpd_carries_its_validity(mixed) -> None:
+    _, out = mixed
+    runs = pl.read_parquet(out / "runs.parquet")
+    assert runs["mpd_valid"].all() and (runs["mpd_valid_baselines"] == runs["mpd_baselines"]).all()
+    assert runs["mpd_baselines"].to_list() == [6, 6]
+    # segments without a whole valid baseline inside have a null MPD, never NaN
+    segments = pl.read_parquet(out / "segments.parquet")
+    assert segments["mpd"].is_nan().sum() == 0
+
+
+def test_cli_refuses_implausible_moduli_and_pressures_naming_the_unit(mixed, tmp_path: Path) -> None:
+    folder, _ = mixed
+    for flags in (["--moduli", "2.5e6"], ["--pressure", "200000"]):
+        done = subprocess.run([str(ROADTEX), "process", str(folder / "manifest.csv"), "--out", str(tmp_path / "o"), *flags],
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 2 and "MPa" in done.stderr and flags[0] in done.stderr, done.stderr
+        assert not (tmp_path / "o" / "segments.parquet").exists()
+    version = subprocess.run([str(ROADTEX), "--version"], capture_output=True, text=True, timeout=60)
+    assert version.returncode == 0 and version.stdout.strip() == f"roadtex {roadtex.__version__}"
+
+
+def test_options_warn_on_implausible_moduli_from_python() -> None:
+    with pytest.warns(roadtex.errors.ImplausibleParameterWarning, match="MPa"):
+        ProcessingOptions(youngs_moduli=(2.5,))
+
+
+def test_dask_and_local_tables_are_bit_identical_on_real_data(tmp_path: Path, captif_dir: Path) -> None:
+    pytest.importorskip("distributed", reason="dask.distributed is a dev requirement; install roadtex[dask]")
+    manifest = pl.DataFrame({"path": [str(captif_dir / "20211011_aylesbury_dec_station_1.dat")]})
+    options = ProcessingOptions(youngs_moduli=(1e6, 1e7), tol=1e-6)
+    process(manifest, tmp_path / "local", options, quiet=True)
+    process(manifest, tmp_path / "dask", options, engine="dask", workers=1, quiet=True)
+    for name in ("segments", "bands", "runs", "examples"):
+        assert_frame_equal(pl.read_parquet(tmp_path / "dask" / f"{name}.parquet"),
+                           pl.read_parquet(tmp_path / "local" / f"{name}.parquet"), check_exact=True)
