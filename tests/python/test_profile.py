@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roadtex.profiles import Profile, read_profile, write_profile
 from roadtex.errors import ConditioningWarning
+from roadtex.profiles import Profile, read_profile, write_profile
 
 
 def wavy(n: int = 2000, dx: float = 0.5e-3, amplitude: float = 1e-3, wavelength: float = 10e-3) -> Profile:

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 import pytest
+
 from exports import readme_bulk_commands, write_colleague_exports
 
 ROADTEX = Path(sys.executable).parent / "roadtex"
