@@ -1,8 +1,12 @@
-"""The report and the main job: every figure present and drawn, the HTML well formed and self-contained."""
+"""The report and the main job: every figure present and drawn, the HTML well formed and self-contained;
+legends off the data, figures numbered in document order, failed runs and each run's conditioning
+listed, moduli in MPa and levels with their reference."""
 
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import subprocess
 import sys
 from html.parser import HTMLParser
@@ -15,8 +19,8 @@ from matplotlib import image
 
 from roadtex.archive import ProcessingOptions, process
 from roadtex.demo import write_synthetic_archive
-from roadtex.report import FIGURES, build_report, octave_table
-from roadtex.report.data import load_results
+from roadtex.report import FIGURES, SEED_FIGURES, build_report, draw_figures, octave_table
+from roadtex.report.data import load_results, modulus_label, plain, pyplot
 
 VOID = {"meta", "img", "br", "hr", "link", "input"}
 
@@ -56,19 +60,29 @@ class WellFormed(HTMLParser):
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The synthetic archive plus one run whose file is empty: it fails at the read stage."""
     folder = tmp_path_factory.mktemp("report")
     manifest = write_synthetic_archive(folder / "archive", runs_per_kind=2, run_length=1.0)
+    (manifest.parent / "broken_001.csv").write_text("")
+    table = pl.read_csv(manifest)
+    broken = {**table.row(0, named=True), "path": "broken_001.csv", "run_id": "broken_001", "site": "broken"}
+    with_broken = manifest.parent / "with_broken.csv"
+    pl.concat([table, pl.DataFrame([broken], schema=table.schema)]).write_csv(with_broken)
     options = ProcessingOptions(youngs_moduli=(1e6, 5e6), segment_length=0.25, tol=1e-8)
-    process(manifest, folder / "results", options, quiet=True)
+    summary = process(with_broken, folder / "results", options, quiet=True)
+    assert summary.failed == 1 and summary.processed == 6
     return folder / "results"
+
+
+BENCHMARK = {"meta": {}, "rows": [
+    {"case": "westergaard", "solver": solver, "time_s": t * scale, "l1_error": e / scale}
+    for solver, t in (("roadtex-element", 0.01), ("tamaas", 0.2)) for scale, e in ((1, 1e-5), (4, 2e-6), (16, 3e-7))]}
 
 
 @pytest.fixture(scope="module")
 def report(results: Path, tmp_path_factory: pytest.TempPathFactory):
     benchmark = tmp_path_factory.mktemp("bench") / "rows.json"
-    rows = [{"case": "westergaard", "solver": solver, "time_s": t * scale, "l1_error": e / scale}
-            for solver, t in (("roadtex-element", 0.01), ("tamaas", 0.2)) for scale, e in ((1, 1e-5), (4, 2e-6), (16, 3e-7))]
-    benchmark.write_text(json.dumps({"meta": {}, "rows": rows}))
+    benchmark.write_text(json.dumps(BENCHMARK))
     return build_report(results, benchmark=benchmark)
 
 
@@ -165,9 +179,251 @@ def test_main_job_runs_end_to_end(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert "3 processed" in done.stdout and "report with" in done.stdout
     assert (tmp_path / "report" / "report.html").stat().st_size > 50_000
+    assert "No failed runs" in (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
     segments = pl.read_parquet(tmp_path / "results" / "segments.parquet")
     assert set(segments["pavement"].unique()) == {"cement_concrete", "dense_asphalt", "porous_asphalt"}
     # Run again on the same output: nothing to recompute.
     again = subprocess.run([sys.executable, "-m", "roadtex.cli", "demo", "--out", str(tmp_path), "--runs", "1",
                             "--run-length", "1.0", "--quiet"], capture_output=True, text=True, timeout=600)
     assert again.returncode == 0 and "0 processed, 3 already done" in again.stdout
+
+
+# --------------------------------------------------------------------------------------------------
+# Issue 14: legends, numbering, failed runs, conditioning facts, units and level references
+# --------------------------------------------------------------------------------------------------
+
+class Tables(HTMLParser):
+    """The HTML's tables by class (header and rows of cell texts) and its figure captions."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tables: dict[str, dict[str, list]] = {}
+        self.captions: list[str] = []
+        self.current: dict[str, list] | None = None
+        self.row: list[str] | None = None
+        self.text: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "table":
+            self.current = self.tables.setdefault(dict(attrs).get("class") or "", {"header": [], "rows": []})
+        elif tag == "tr":
+            self.row = []
+        elif tag in ("td", "th", "figcaption"):
+            self.text = []
+
+    def handle_data(self, data):
+        if self.text is not None:
+            self.text.append(data)
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self.row is not None and self.text is not None:
+            self.row.append("".join(self.text))
+            self.text = None
+        elif tag == "figcaption" and self.text is not None:
+            self.captions.append("".join(self.text))
+            self.text = None
+        elif tag == "tr" and self.current is not None and self.row is not None:
+            if self.current["header"]:
+                self.current["rows"].append(self.row)
+            else:
+                self.current["header"] = self.row
+            self.row = None
+        elif tag == "table":
+            self.current = None
+
+
+def parse(path: Path) -> Tables:
+    parser = Tables()
+    parser.feed(path.read_text(encoding="utf-8"))
+    return parser
+
+
+def column(table: dict[str, list], heading: str) -> list[str]:
+    index = table["header"].index(heading)
+    return [row[index] for row in table["rows"]]
+
+
+def text_without_images(path: Path) -> str:
+    return re.sub(r'src="data:[^"]*"', "", path.read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def drawn(results: Path):
+    """The report's matplotlib figures, drawn (so that every extent is known), closed afterwards."""
+    plt = pyplot()
+    figures, _ = draw_figures(load_results(results), BENCHMARK)
+    for fig in figures.values():
+        fig.canvas.draw()
+    yield figures
+    for fig in figures.values():
+        plt.close(fig)
+
+
+def test_no_legend_lies_over_any_axes(drawn) -> None:
+    """Figures 2.1, 4.1 and 4.2 had their legend over the curves: now every figure has its legend,
+    and none overlaps the data area of any of its axes (the legend sits outside them)."""
+    assert set(drawn) == set(FIGURES)
+    for name, fig in drawn.items():
+        legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        assert legends, f"{name} has no legend"
+        renderer = fig.canvas.get_renderer()
+        for legend in legends:
+            box = legend.get_window_extent(renderer)
+            for ax in fig.axes:
+                if ax.get_visible():
+                    assert not box.overlaps(ax.get_window_extent(renderer)), f"{name}: legend over {ax.get_title()!r}"
+
+
+def test_legends_name_moduli_in_mpa(drawn) -> None:
+    texts = [t.get_text() for fig in drawn.values() for legend in fig.legends for t in legend.get_texts()]
+    assert "E = 1 MPa" in texts and "E = 5 MPa" in texts
+    assert not any("e+" in t for t in texts), texts
+    assert modulus_label(2.5e6) == "E = 2.5 MPa" and modulus_label(1e6) == "E = 1 MPa"
+    assert plain(2.5e6) == "2500000" and plain(0.0375) == "0.0375" and plain(float("nan")) == "n/a"
+
+
+def test_every_level_axis_states_its_reference(drawn) -> None:
+    """A level is meaningless without its reference: texture in dB re 1 µm, pressure in dB re 1 Pa;
+    only a difference of two levels (same reference) is plain dB."""
+    labels = [label for fig in drawn.values() for ax in fig.axes for label in (ax.get_xlabel(), ax.get_ylabel())]
+    levels = [label for label in labels if "level" in label]
+    assert any("texture" in label for label in levels) and any("pressure" in label for label in levels)
+    for label in levels:
+        if "−" in label:  # enveloped − original: a level difference
+            assert "(dB)" in label
+        elif "pressure" in label:
+            assert "dB re 1 Pa" in label, label
+        else:
+            assert "texture" in label and "dB re 1 µm" in label, label
+
+
+def test_figures_are_numbered_in_document_order(report) -> None:
+    """Figure 1, 2, 3 ... in the order they appear, each naming the seed figure it reproduces;
+    the number of a seed figure (4.1) is never used as the document's own."""
+    captions = parse(report.html).captions
+    assert len(captions) == len(FIGURES)
+    numbers = [int(re.match(r"Figure (\d+): ", c).group(1)) for c in captions]
+    assert numbers == list(range(1, len(FIGURES) + 1))
+    for caption, name in zip(captions, FIGURES):
+        if name in SEED_FIGURES:
+            assert f"reproduces figure {SEED_FIGURES[name]} of the INRETS report" in caption
+        assert not re.search(r"Figure \d+\.\d", caption), caption
+    envelopes = list(FIGURES).index("envelopes") + 1
+    assert f"profiles of Figure {envelopes}" in captions[list(FIGURES).index("pressures")]
+    for number, (name, (png, svg)) in enumerate(report.figures.items(), start=1):
+        assert png.name == f"figure_{number}_{name}.png" and svg.name == f"figure_{number}_{name}.svg"
+
+
+def test_failed_runs_are_listed(report, results: Path) -> None:
+    """The run whose file is empty is in the report: run id, stage, error type, message and file."""
+    errors = pl.read_parquet(results / "errors.parquet")
+    assert errors["run_id"].to_list() == ["broken_001"]
+    tables = parse(report.html).tables
+    failures = tables["failures"]
+    assert failures["header"] == ["run_id", "stage", "error type", "message", "file"]
+    assert failures["rows"] == [[errors["run_id"][0], errors["stage"][0], errors["error_type"][0],
+                                 errors["message"][0], errors["path"][0]]]
+    assert failures["rows"][0][1] == "read" and failures["rows"][0][4].endswith("broken_001.csv")
+    assert "1 run(s) failed" in report.html.read_text(encoding="utf-8")
+    assert "broken_001" not in column(tables["runs"], "run_id")
+
+
+@pytest.fixture(scope="module")
+def altered(results: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A copy of ``results`` as another job could leave it, reported once: no failure on record,
+    the first run's MPD null (no valid baseline), and one reported band's pressure level null."""
+    copy = tmp_path_factory.mktemp("altered") / "results"
+    shutil.copytree(results, copy, ignore=shutil.ignore_patterns("report"))
+    pl.read_parquet(results / "errors.parquet").head(0).write_parquet(copy / "errors.parquet")
+    runs = pl.read_parquet(results / "runs.parquet")
+    first = runs["run_id"][0]
+    is_first = pl.col("run_id") == first
+    runs.with_columns(pl.when(is_first).then(None).otherwise(pl.col("mpd")).alias("mpd"),
+                      pl.when(is_first).then(False).otherwise(pl.col("mpd_valid")).alias("mpd_valid"),
+                      ).write_parquet(copy / "runs.parquet")
+    bands = pl.read_parquet(results / "bands.parquet")
+    band = bands.filter(pl.col("reported") & (pl.col("band") == 21) & (pl.col("segment") == 0)).row(0, named=True)
+    hit = ((pl.col("run_id") == band["run_id"]) & (pl.col("segment") == 0) & (pl.col("band") == 21)
+           & (pl.col("youngs_modulus") == band["youngs_modulus"]))
+    bands.with_columns(pl.when(hit).then(None).otherwise(pl.col("pressure_level")).alias("pressure_level")) \
+        .write_parquet(copy / "bands.parquet")
+    return {"folder": copy, "report": build_report(copy), "first": first, "band": band}
+
+
+def test_no_failure_is_said_in_a_line(altered: dict) -> None:
+    text = altered["report"].html.read_text(encoding="utf-8")
+    assert "No failed runs" in text and "failures" not in parse(altered["report"].html).tables
+    assert "0 run(s) failed" in text
+
+
+def test_each_runs_conditioning_is_shown(report, results: Path) -> None:
+    """runs.parquet's conditioning facts, per run, in report units: dx in mm, trimmed length in mm,
+    shares in %, MPD in mm with its validity and valid/all baselines."""
+    runs = pl.read_parquet(results / "runs.parquet").sort("run_id")
+    table = parse(report.html).tables["conditioning"]
+    for heading in ("file dx (mm)", "dx (mm)", "trimmed (mm)", "reference plates", "drop-outs (%)", "spikes (%)",
+                    "outliers (%)", "warnings", "MPD (mm)", "MPD valid", "valid MPD baselines"):
+        assert heading in table["header"], heading
+    order = np.argsort(column(table, "run_id"))
+    shown = {h: [column(table, h)[i] for i in order] for h in table["header"]}
+    assert shown["run_id"] == runs["run_id"].to_list()
+    assert shown["dx (mm)"] == ["0.5"] * runs.height  # the archive is sampled at 0.5 mm
+    assert shown["valid MPD baselines"] == [f"{v}/{n}" for v, n in runs.select("mpd_valid_baselines", "mpd_baselines").iter_rows()]
+    assert shown["MPD valid"] == ["yes" if v else "no" for v in runs["mpd_valid"]]
+    np.testing.assert_allclose([float(v) for v in shown["MPD (mm)"]], runs["mpd"].to_numpy() * 1e3, rtol=5e-3)
+    np.testing.assert_allclose([float(v) for v in shown["spikes (%)"]], runs["spike_fraction"].to_numpy() * 100,
+                               rtol=5e-3, atol=1e-12)
+
+
+def test_mpd_without_a_value_is_n_a(altered: dict) -> None:
+    """A run without a valid MPD baseline has MPD null in runs.parquet: the report writes n/a, in
+    both tables, and never an empty cell or 'nan'."""
+    tables = parse(altered["report"].html).tables
+    for name in ("runs", "conditioning"):
+        mpd = dict(zip(column(tables[name], "run_id"), column(tables[name], "MPD (mm)")))
+        assert mpd[altered["first"]] == "n/a"
+        assert all(v not in ("", "nan", "n/a") for run, v in mpd.items() if run != altered["first"])
+
+
+def test_html_writes_moduli_and_pressures_in_mpa_and_levels_with_reference(report) -> None:
+    text = text_without_images(report.html)
+    assert not re.search(r"\d[eE][+-]\d", text), "a number written with an exponent"
+    assert "E = 1, 5 MPa, P = 0.2 MPa" in text
+    tables = parse(report.html).tables
+    assert "contact % (E = 1 MPa)" in tables["runs"]["header"] and "contact % (E = 5 MPa)" in tables["runs"]["header"]
+    assert "mean texture band level (dB re 1 µm)" in tables["runs"]["header"]
+    regressions = tables["regressions"]
+    assert "intercept (dB re 1 Pa)" in regressions["header"]
+    assert set(column(regressions, "E (MPa)")) == {"1", "5"}
+    for table in tables.values():
+        for heading in table["header"]:
+            assert "level" not in heading or "dB re 1" in heading, heading
+
+
+def test_unreported_bands_and_null_levels(results: Path, altered: dict, tmp_path: Path) -> None:
+    """bands.parquet keeps every band with ``reported``; the report reads only the reported ones. A
+    null level drops its octave for that segment (never a two-part power sum): the octave table is
+    then the one without that segment's octave, and the report is still drawn."""
+    every = pl.read_parquet(results / "bands.parquet")
+    assert {"reported", "reason"} <= set(every.columns) and not every["reported"].all()
+    assert load_results(results).bands["reported"].all()
+
+    band = altered["band"]
+    with_null = octave_table(load_results(altered["folder"]))
+    octave = ((pl.col("run_id") == band["run_id"]) & (pl.col("segment") == 0) & pl.col("band").is_in([20, 21, 22])
+              & (pl.col("youngs_modulus") == band["youngs_modulus"]))
+    copy = tmp_path / "results"
+    shutil.copytree(altered["folder"], copy, ignore=shutil.ignore_patterns("report"))
+    every.filter(~octave).write_parquet(copy / "bands.parquet")
+    without = octave_table(load_results(copy))
+    key = ["run_id", "youngs_modulus", "band"]
+    joined = with_null.join(without, on=key, suffix="_without")
+    assert joined.height == with_null.height == without.height
+    pick = joined.filter((pl.col("run_id") == band["run_id"]) & (pl.col("band") == 21)
+                         & (pl.col("youngs_modulus") == band["youngs_modulus"]))
+    assert pick.height == 1 and np.isfinite(pick["pressure_level"][0])
+    np.testing.assert_allclose(joined["pressure_level"], joined["pressure_level_without"], rtol=0, atol=1e-9)
+    full = octave_table(load_results(results)).join(with_null, on=key, suffix="_null")
+    changed = full.filter((pl.col("pressure_level") - pl.col("pressure_level_null")).abs() > 1e-9)
+    assert changed.select("run_id", "band").rows() == [(band["run_id"], 21)]
+    assert altered["report"].figures["pressure_vs_texture"][0].stat().st_size > 10_000

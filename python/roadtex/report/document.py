@@ -1,18 +1,24 @@
 """The report: the seed's figures drawn for a processed archive, in one self-contained HTML file.
 
 :func:`build_report` reads only the outputs that :func:`roadtex.archive.process` wrote
-(``segments``, ``bands``, ``runs``, ``examples``, ``edge_effect`` and ``parameters.json``): it
-never re-reads a raw file nor solves a contact problem, so its figures show exactly what the
-tables hold. It writes ``report.html`` (figures embedded as PNG data, no
-network needed) plus every figure as PNG and SVG in ``figures/``.
+(``segments``, ``bands``, ``runs``, ``errors``, ``examples``, ``edge_effect`` and
+``parameters.json``): it never re-reads a raw file nor solves a contact problem, so its figures show
+exactly what the tables hold. It writes ``report.html`` (figures embedded as PNG data, no network
+needed) plus every figure as PNG and SVG in ``figures/``.
 
-Figures (numbers after the INRETS report of Klein & Hamet, the seed):
-2.1 von Meier envelopes at several d* on one profile; 3.1 the edge effect of a finite sample;
-4.1 enveloped profiles per pavement at several E; 4.2 their pressure distributions; 4.3 valley
-penetration, von Meier against INRETS; 4.4 texture spectra of enveloped profiles and their
-difference from the original; 4.5 pressure spectra; 4.6 pressure level against texture level per
-octave band with a regression line per E; and solver speed against error when benchmark data
-(``benches/speed_vs_error.py --json``) is given or found.
+The document holds: a summary; the failed runs (from ``errors.parquet``, or a line saying there
+were none); per run the results (MPD, contact fraction per E, mean texture level) and the
+conditioning facts (sampling intervals, trimmed length, reference plates, share of readings
+removed, warnings, MPD validity); the figures; the regressions of figure "pressure against
+texture". Figures are numbered by their order in the document (Figure 1, 2, ...); each caption says
+which figure of the INRETS report (Klein & Hamet, the seed) it reproduces: 2.1 von Meier envelopes
+at several d*; 3.1 the edge effect of a finite sample; 4.1 enveloped profiles per pavement at
+several E; 4.2 their pressure distributions; 4.3 valley penetration, von Meier against INRETS; 4.4
+texture spectra of enveloped profiles and their difference from the original; 4.5 pressure
+spectra; 4.6 pressure level against texture level per octave band with a regression line per E;
+then solver speed against error when benchmark data (``benches/speed_vs_error.py --json``) is given
+or found. Moduli and pressures are in MPa, levels in dB re 1 µm (texture) and dB re 1 Pa
+(pressure).
 """
 
 from __future__ import annotations
@@ -24,72 +30,205 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import polars as pl
 
-from roadtex.report.data import MM, Results, energetic_mean, load_examples, load_results, pyplot
+from roadtex.report.data import (
+    MM,
+    PRESSURE_DB,
+    TEXTURE_DB,
+    Results,
+    energetic_mean,
+    load_examples,
+    load_results,
+    megapascals,
+    plain,
+    pyplot,
+)
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
 
-#: Figure order and captions in the report.
+#: Figure order and captions in the report (without their number: a figure's number is its place in
+#: the document). ``{envelopes}`` stands for the number of the enveloped-profiles figure.
 FIGURES: dict[str, str] = {
-    "fig_2_1_von_meier": "Figure 2.1: von Meier et al. envelopes at several curvature limits d* on one profile.",
-    "fig_3_1_edge_effect": "Figure 3.1: the edge effect: pressure on a flat profile, finite sample against the periodic model.",
-    "fig_4_1_envelopes": "Figure 4.1: enveloped profiles of each pavement at several rubber moduli E (INRETS periodic model).",
-    "fig_4_2_pressures": "Figure 4.2: contact pressure distributions of the profiles of figure 4.1.",
-    "fig_4_3_valley_penetration": ("Figure 4.3: depth of penetration into each valley, below the line joining its two asperities, "
-                                   "von Meier (d* = 0.054 1/mm) against INRETS at several E; negative where the rubber "
-                                   "stays above that line."),
-    "fig_4_4_texture_spectra": ("Figure 4.4: texture spectra (band levels) of enveloped profiles (top) and their "
-                                "difference from the original profile (bottom)."),
-    "fig_4_5_pressure_spectra": "Figure 4.5: band spectra of the contact pressure.",
-    "fig_4_6_pressure_vs_texture": "Figure 4.6: pressure level against enveloped texture level per octave band, one regression line per E.",
-    "fig_speed_vs_error": "Solver speed against error (from the benchmark data).",
+    "von_meier": "von Meier et al. envelopes at several curvature limits d* on one profile.",
+    "edge_effect": "The edge effect: pressure on a flat profile, finite sample against the periodic model.",
+    "envelopes": "Enveloped profiles of each pavement at several rubber moduli E (INRETS periodic model).",
+    "pressures": "Contact pressure distributions of the profiles of Figure {envelopes}.",
+    "valley_penetration": ("Depth of penetration into each valley, below the line joining its two asperities, "
+                           "von Meier (d* = 0.054 1/mm) against INRETS at several E; negative where the rubber "
+                           "stays above that line."),
+    "texture_spectra": (f"Texture spectra (band levels, {TEXTURE_DB}) of enveloped profiles (top) and their "
+                        "difference from the original profile (bottom)."),
+    "pressure_spectra": f"Band spectra of the contact pressure ({PRESSURE_DB}).",
+    "pressure_vs_texture": (f"Pressure level ({PRESSURE_DB}) against enveloped texture level ({TEXTURE_DB}) "
+                            "per octave band, one regression line per E."),
+    "speed_vs_error": "Solver speed against error (from the benchmark data).",
 }
-
-_MM = 1e3
-_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#7f7f7f")
+#: The figure of the INRETS report (the seed) that each figure reproduces.
+SEED_FIGURES: dict[str, str] = {
+    "von_meier": "2.1", "edge_effect": "3.1", "envelopes": "4.1", "pressures": "4.2", "valley_penetration": "4.3",
+    "texture_spectra": "4.4", "pressure_spectra": "4.5", "pressure_vs_texture": "4.6",
+}
 
 
 @dataclass(frozen=True)
 class Report:
-    """What :func:`build_report` wrote."""
+    """What :func:`build_report` wrote: the HTML file and, per figure name, its PNG and SVG."""
 
     html: Path
     figures: dict[str, list[Path]]
 
 
+def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> tuple[dict[str, Any], pl.DataFrame]:
+    """The report's matplotlib figures, in document order (names as in :data:`FIGURES`), and the
+    regressions of pressure level on texture level drawn in ``pressure_vs_texture``.
+
+    Args:
+        results: the job's tables (:func:`~roadtex.report.data.load_results`).
+        benchmark: the JSON object of ``benches/speed_vs_error.py --json``, or None (no such figure).
+
+    The caller closes the figures (``matplotlib.pyplot.close``).
+    """
+    plt = pyplot()
+    examples = load_examples(results)
+    pressure = results.options.get("mean_pressure", 2e5)
+    figures: dict[str, Any] = {
+        "von_meier": fig_von_meier(plt, examples),
+        "edge_effect": fig_edge_effect(plt, results.edge_effect),
+        "envelopes": fig_envelopes(plt, examples),
+        "pressures": fig_pressures(plt, examples),
+        "valley_penetration": fig_valley_penetration(plt, examples, results.moduli, pressure),
+        "texture_spectra": fig_texture_spectra(plt, results),
+        "pressure_spectra": fig_pressure_spectra(plt, results),
+    }
+    figures["pressure_vs_texture"], regressions = fig_pressure_vs_texture(plt, results)
+    if benchmark is not None:
+        fig = fig_speed_vs_error(plt, benchmark)
+        if fig is not None:
+            figures["speed_vs_error"] = fig
+    return figures, regressions
+
+
+def captions(names: list[str]) -> dict[str, str]:
+    """Each figure's caption, numbered by its place in ``names`` (the document's order), with the
+    seed figure it reproduces: "Figure 3: ... (reproduces figure 4.1 of the INRETS report)."."""
+    numbers = {name: index + 1 for index, name in enumerate(names)}
+    fields = {name: numbers.get(name, "?") for name in FIGURES}
+    out = {}
+    for name in names:
+        text = FIGURES[name].format(**fields)
+        if name in SEED_FIGURES:
+            text = f"{text[:-1]} (reproduces figure {SEED_FIGURES[name]} of the INRETS report)."
+        out[name] = f"Figure {numbers[name]}: {text}"
+    return out
+
+
+def distance(metres: float) -> str:
+    """A total length of profile: in km from 1 km, else in m."""
+    return f"{plain(metres / 1e3, 4)} km" if metres >= 1e3 else f"{plain(metres, 4)} m"
+
+
+def modulus_column(e: float) -> str:
+    return f"E = {megapascals(e)}"
+
+
 def run_table(results: Results) -> pl.DataFrame:
-    """The report's main table: per run, MPD and per E the contact fraction and mean levels."""
+    """The report's main table: per run, length (m), MPD (mm; null where undefined), and per E the
+    contact fraction (%) and the mean texture level of the original profile (dB re 1 µm, energetic
+    mean over the run's reported bands and segments)."""
     seg = results.segments
     per_e = (seg.group_by("run_id", "youngs_modulus", maintain_order=True)
              .agg(pl.col("contact_fraction").mean(), pl.col("mean_gap").mean(), pl.col("max_pressure").max()))
-    rows = results.runs.select("run_id", "length", "mpd")
+    wide = results.runs.select("run_id", pl.col("length").alias("length (m)"),
+                               (pl.col("mpd").fill_nan(None) * MM).alias("MPD (mm)"))
     if results.group_column() != "run_id":
-        rows = rows.join(results.run_groups().rename({"group": results.group_column()}), on="run_id", how="left")
-    wide = rows
+        groups = results.run_groups().rename({"group": results.group_column()})
+        wide = groups.join(wide, on="run_id", how="right").select("run_id", pl.exclude("run_id"))
     for e in results.moduli:
         part = per_e.filter(pl.col("youngs_modulus") == e).select(
-            "run_id", (pl.col("contact_fraction") * 100).alias(f"contact % ({e / 1e6:g} MPa)"))
+            "run_id", (pl.col("contact_fraction") * 100).alias(f"contact % ({modulus_column(e)})"))
         wide = wide.join(part, on="run_id", how="left")
     levels = (results.bands.filter(pl.col("youngs_modulus") == results.moduli[0])
-              .group_by("run_id").agg(energetic_mean(pl.col("texture_level")).alias("mean band level (dB)")))
-    wide = wide.join(levels, on="run_id", how="left")
-    return wide.with_columns((pl.col("mpd") * MM).alias("MPD (mm)"), pl.col("length").alias("length (m)")) \
-        .drop("mpd", "length").select("run_id", pl.exclude("run_id"))
+              .group_by("run_id").agg(energetic_mean(pl.col("texture_level")).alias(f"mean texture band level ({TEXTURE_DB})")))
+    return wide.join(levels, on="run_id", how="left")
 
 
-def html_table(table: pl.DataFrame) -> str:
+#: runs.parquet's conditioning columns, their headings in the report and the factor to those units.
+CONDITIONING: dict[str, tuple[str, float]] = {
+    "file_dx": ("file dx (mm)", MM), "dx": ("dx (mm)", MM), "raw_length": ("read (m)", 1.0),
+    "trimmed_length": ("trimmed (mm)", MM), "plates": ("reference plates", 1.0),
+    "dropout_fraction": ("drop-outs (%)", 100.0), "spike_fraction": ("spikes (%)", 100.0),
+    "outlier_fraction": ("outliers (%)", 100.0), "mpd": ("MPD (mm)", MM), "mpd_valid": ("MPD valid", 1.0),
+    "conditioning_warnings": ("warnings", 1.0),
+}
+
+
+def conditioning_table(results: Results) -> pl.DataFrame:
+    """Per run, what conditioning did (runs.parquet): the file's and the job's sampling interval
+    (mm), the length read (m) and trimmed (mm), the reference plates found, the share of readings
+    that were drop-outs, spikes and outliers (%), the warnings, and MPD (mm, null where undefined)
+    with its ISO 13473-1 validity and valid/all baselines. Columns missing from an older job's
+    table are left out."""
+    runs = results.runs
+    columns: list[pl.Expr] = [pl.col("run_id")]
+    for name, (heading, factor) in CONDITIONING.items():
+        if name not in runs.columns:
+            continue
+        column = pl.col(name)
+        if runs.schema[name].is_float():
+            column = column.fill_nan(None) * factor
+        elif name == "conditioning_warnings":
+            column = column.fill_null("none")
+        columns.append(column.alias(heading))
+        if name == "mpd_valid" and {"mpd_valid_baselines", "mpd_baselines"} <= set(runs.columns):
+            columns.append(pl.format("{}/{}", "mpd_valid_baselines", "mpd_baselines").alias("valid MPD baselines"))
+    return runs.select(columns)
+
+
+def failure_table(results: Results) -> pl.DataFrame:
+    """errors.parquet as the report shows it: run id, stage, error type, message and file."""
+    columns = {"run_id": "run_id", "stage": "stage", "error_type": "error type", "message": "message", "path": "file"}
+    errors = results.errors
+    return errors.select([pl.col(c).alias(h) for c, h in columns.items() if c in errors.columns])
+
+
+def failure_section(results: Results) -> str:
+    if not results.errors.columns:
+        return "<p>No errors.parquet in the results folder: failed runs, if any, are not on record.</p>"
+    if results.errors.height == 0:
+        return "<p>No failed runs: every run of the manifest was processed (errors.parquet is empty).</p>"
+    return (f"<p>{results.errors.height} run(s) failed and are not in the tables or figures below "
+            "(errors.parquet; <code>roadtex process --retry-failed</code> tries them again):</p>"
+            + html_table(failure_table(results), classes="failures"))
+
+
+def cell(value: Any) -> str:
+    """A table cell's text: numbers to 3 significant digits without exponent, "n/a" for a missing
+    number, yes/no for booleans."""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return plain(value)
+    if value is None:
+        return "n/a"
+    return str(value)
+
+
+def html_table(table: pl.DataFrame, classes: str = "") -> str:
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in table.columns)
-    body = []
-    for row in table.iter_rows():
-        cells = []
-        for value in row:
-            text = f"{value:.3g}" if isinstance(value, float) else ("" if value is None else str(value))
-            cells.append(f"<td>{html.escape(text)}</td>")
-        body.append(f"<tr>{''.join(cells)}</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(cell(v))}</td>" for v in row) + "</tr>"
+                   for row in table.iter_rows())
+    attribute = f' class="{classes}"' if classes else ""
+    return f"<table{attribute}><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def regression_table(regressions: pl.DataFrame) -> pl.DataFrame:
+    return regressions.select(
+        pl.col("label").alias("octave band (mm)"), (pl.col("youngs_modulus") / 1e6).alias("E (MPa)"),
+        pl.col("slope").alias("slope (dB/dB)"), pl.col("intercept").alias(f"intercept ({PRESSURE_DB})"),
+        pl.col("r2").alias("r²"), pl.col("n"))
 
 
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
@@ -100,7 +239,7 @@ th{background:#f0f0f0}code{background:#f4f4f4}"""
 
 def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathLike[str] | None = None,
                  benchmark: str | os.PathLike[str] | None = None, title: str = "roadtex report") -> Report:
-    """Draws the seed's figures for a processed archive into one self-contained HTML report.
+    """Draws the seed's figures and the job's tables (failed runs included) into one self-contained HTML report.
 
     Args:
         results_dir: the folder written by :func:`roadtex.archive.process`.
@@ -116,63 +255,51 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
     out = Path(out_dir) if out_dir is not None else results.root / "report"
     figures_dir = out / "figures"
     figures_dir.mkdir(parents=True, exist_ok=True)
-    plt = pyplot()
     options = results.options
-    examples = load_examples(results)
-    pressure = options.get("mean_pressure", 2e5)
-    builders: dict[str, Callable[[], Any]] = {
-        "fig_2_1_von_meier": lambda: fig_von_meier(plt, examples),
-        "fig_3_1_edge_effect": lambda: fig_edge_effect(plt, results.edge_effect),
-        "fig_4_1_envelopes": lambda: fig_envelopes(plt, examples),
-        "fig_4_2_pressures": lambda: fig_pressures(plt, examples),
-        "fig_4_3_valley_penetration": lambda: fig_valley_penetration(plt, examples, results.moduli, pressure),
-        "fig_4_4_texture_spectra": lambda: fig_texture_spectra(plt, results),
-        "fig_4_5_pressure_spectra": lambda: fig_pressure_spectra(plt, results),
-    }
-    regressions = None
     benchmark_path = Path(benchmark) if benchmark is not None else results.root / "benchmark.json"
+    bench_rows = json.loads(benchmark_path.read_text()) if benchmark_path.exists() else None
+    plt = pyplot()
+    figures, regressions = draw_figures(results, bench_rows)
+    numbered = captions(list(figures))
     written: dict[str, list[Path]] = {}
     sections: list[str] = []
-
-    def save(name: str, fig) -> None:
+    for number, (name, fig) in enumerate(figures.items(), start=1):
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", bbox_inches="tight")
-        png = figures_dir / f"{name}.png"
+        png = figures_dir / f"figure_{number}_{name}.png"
         png.write_bytes(buffer.getvalue())
-        svg = figures_dir / f"{name}.svg"
+        svg = png.with_suffix(".svg")
         fig.savefig(svg, format="svg", bbox_inches="tight")
         plt.close(fig)
         written[name] = [png, svg]
         data = base64.b64encode(buffer.getvalue()).decode("ascii")
-        sections.append(f'<figure id="{name}"><img alt="{html.escape(FIGURES[name])}" '
-                        f'src="data:image/png;base64,{data}"/><figcaption>{html.escape(FIGURES[name])}'
-                        f"</figcaption></figure>")
+        caption = html.escape(numbered[name])
+        sections.append(f'<figure id="{name}"><img alt="{caption}" src="data:image/png;base64,{data}"/>'
+                        f"<figcaption>{caption}</figcaption></figure>")
 
-    for name, build in builders.items():
-        save(name, build())
-    fig, regressions = fig_pressure_vs_texture(plt, results)
-    save("fig_4_6_pressure_vs_texture", fig)
-    if benchmark_path.exists():
-        fig = fig_speed_vs_error(plt, json.loads(benchmark_path.read_text()))
-        if fig is not None:
-            save("fig_speed_vs_error", fig)
-
-    summary = run_table(results)
+    pressure = options.get("mean_pressure", 2e5)
     n_errors = results.errors.height
+    version = html.escape(str(results.parameters.get("versions", {}).get("roadtex", "?")))
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8"/>',
         f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
-        f"<p>{results.runs.height} runs, {results.runs['length'].sum() / 1e3:.3f} km of profile, "
+        f"<p>{results.runs.height} runs, {distance(float(results.runs['length'].sum()))} of profile, "
         f"{results.segments.height} segment solutions; "
-        f"E = {', '.join(f'{e / 1e6:g}' for e in results.moduli)} MPa, P = {pressure / 1e6:g} MPa, "
-        f"segments of {options.get('segment_length', 0.5):g} m. "
-        f"{n_errors} run(s) failed{' (see errors.parquet)' if n_errors else ''}. "
-        f"roadtex {html.escape(str(results.parameters.get('versions', {}).get('roadtex', '?')))}.</p>",
-        "<h2>Runs</h2>", html_table(summary),
+        f"E = {', '.join(plain(e / 1e6, 4) for e in results.moduli)} MPa, P = {megapascals(pressure)}, "
+        f"segments of {plain(options.get('segment_length', 0.5) * MM, 4)} mm. "
+        f"{n_errors} run(s) failed{' (listed below)' if n_errors else ''}. "
+        f"Texture levels in {TEXTURE_DB}, pressure levels in {PRESSURE_DB}. roadtex {version}.</p>",
+        "<h2>Failed runs</h2>", failure_section(results),
+        "<h2>Runs</h2>", html_table(run_table(results), classes="runs"),
+        "<h2>Conditioning of each run</h2>",
+        "<p>Sampling intervals (the file's, and the job's one dx for all runs), length read and trimmed away "
+        "with the reference plates, share of readings that were drop-outs, spikes or outliers (replaced by "
+        "interpolation), and MPD (ISO 13473-1) with its validity; n/a where MPD is undefined.</p>",
+        html_table(conditioning_table(results), classes="conditioning"),
         "<h2>Figures</h2>", *sections,
         "<h2>Regressions of pressure level on texture level, per octave band and E</h2>",
-        html_table(regressions.select("band", "label", "youngs_modulus", "slope", "intercept", "r2", "n")),
+        html_table(regression_table(regressions), classes="regressions"),
         "</body></html>",
     ]
     report_path = out / "report.html"

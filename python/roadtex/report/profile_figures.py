@@ -1,5 +1,6 @@
-"""The report's profile-level figures (seed figures 2.1, 3.1, 4.1 to 4.3), drawn from the job's
-example segments and edge-effect table."""
+"""The report's profile-level figures (reproducing the seed's figures 2.1, 3.1, 4.1 to 4.3), drawn
+from the job's example segments and edge-effect table. Every legend sits outside the axes, so it
+never hides data."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.models.comparisons import SEED_D_STAR, penetration_table, von_meier_envelopes
-from roadtex.report.data import COLOURS, MM, Example, modulus_label
+from roadtex.report.data import COLOURS, MM, Example, legend_outside, megapascals, modulus_label
 
 
 def middle_window(example: Example, length: float = 0.1) -> slice:
@@ -25,13 +26,13 @@ def fig_von_meier(plt, examples: list[Example]):
     view = middle_window(example)
     table = von_meier_envelopes(example.heights, example.dx, d_stars=(13.5, 27.0, 54.0, 108.0)).filter(
         (pl.col("index") >= view.start) & (pl.col("index") < view.stop))
-    fig, ax = plt.subplots(figsize=(8, 3.2))
+    fig, ax = plt.subplots(figsize=(9, 3.2), layout="constrained")
     first = table.filter(pl.col("d_star") == table["d_star"][0])
     ax.plot(first["x"] * MM, first["height"] * MM, color="0.3", lw=0.8, label="road profile")
     for colour, ((d_star,), rows) in zip(COLOURS, table.group_by("d_star", maintain_order=True)):
         ax.plot(rows["x"] * MM, rows["envelope"] * MM, color=colour, lw=1.1, label=f"d* = {d_star / 1e3:g} 1/mm")
-    ax.set(xlabel="distance x (mm)", ylabel="height z (mm)", title=f"von Meier envelopes, {example.group}")
-    ax.legend(ncols=5, loc="lower center")
+    ax.set(xlabel="distance x (mm)", ylabel="height z (mm)", title=f"von Meier envelopes, {example_title(example)}")
+    legend_outside(fig, ax)
     return fig
 
 
@@ -41,26 +42,31 @@ def fig_edge_effect(plt, table: pl.DataFrame):
     points = table.filter(pl.col("model") == table["model"][0])
     length = float(points["x"].max() + points["x"].min())  # centres run from dx/2 to L - dx/2
     styles = {"finite": (COLOURS[1], "-"), "periodic": (COLOURS[0], "-"), "flat punch (exact)": ("0.4", ":")}
-    fig, ax = plt.subplots(figsize=(8, 3.2))
+    fig, ax = plt.subplots(figsize=(9, 3.2), layout="constrained")
     for (model,), rows in table.group_by("model", maintain_order=True):
         colour, style = styles.get(model, ("0.5", "--"))
         ax.plot(rows["x"] * MM, rows["pressure"] / 1e6, color=colour, ls=style, label=model)
     ax.set(xlabel="distance x (mm)", ylabel="pressure p (MPa)", ylim=(0, 4 * mean_pressure / 1e6),
-           title=f"Flat profile, L = {length * MM:g} mm, {modulus_label(modulus)}, P = {mean_pressure / 1e6:g} MPa")
-    ax.legend()
+           title=f"Flat profile, L = {length * MM:g} mm, {modulus_label(modulus)}, P = {megapascals(mean_pressure)}")
+    legend_outside(fig, ax)
     return fig
 
 
+def example_title(example: Example) -> str:
+    """The pavement type and run, or the run alone when the manifest gave no pavement type."""
+    return example.group if example.group == example.run_id else f"{example.group} (run {example.run_id})"
+
+
 def per_group(plt, examples: list[Example], draw: Callable[[Any, Example], None], ylabel: str, title: str):
-    fig, axes = plt.subplots(len(examples), 1, figsize=(8, 2.2 * len(examples) + 0.4), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(len(examples), 1, figsize=(9, 2.2 * len(examples) + 0.4), squeeze=False, sharex=True,
+                             layout="constrained")
     for ax, example in zip(axes[:, 0], examples):
         draw(ax, example)
         ax.set_ylabel(ylabel)
-        ax.set_title(f"{example.group} (run {example.run_id})", loc="left")
+        ax.set_title(example_title(example), loc="left")
     axes[-1, 0].set_xlabel("distance x (mm)")
-    axes[0, 0].legend(ncols=len(examples[0].envelopes) + 1, loc="lower center", fontsize=7)
+    legend_outside(fig, axes[0, 0])
     fig.suptitle(title)
-    fig.tight_layout()
     return fig
 
 
@@ -87,7 +93,8 @@ def fig_pressures(plt, examples: list[Example]):
 
 
 def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], mean_pressure: float):
-    fig, axes = plt.subplots(1, len(examples), figsize=(3.2 * len(examples) + 0.6, 3.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(examples), figsize=(3.2 * len(examples) + 2.0, 3.6), squeeze=False,
+                             layout="constrained")
     for ax, example in zip(axes[0], examples):
         table = penetration_table(example.heights, example.dx, example.envelopes, mean_pressure=mean_pressure,
                                   min_depth=2e-5)
@@ -101,6 +108,5 @@ def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], me
         ax.plot([0, top * MM], [0, top * MM], color="0.5", lw=0.7, ls=":", label="equal penetration")
         ax.set(xlabel=f"von Meier (d* = {SEED_D_STAR / 1e3:g} 1/mm) penetration (mm)",
                ylabel="INRETS penetration (mm)", title=example.group)
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
+    legend_outside(fig, axes[0, 0])
     return fig

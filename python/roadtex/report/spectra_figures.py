@@ -1,4 +1,6 @@
-"""The report's spectral figures (seed figures 4.4 to 4.6) and the solver speed against error."""
+"""The report's spectral figures (reproducing the seed's figures 4.4 to 4.6) and the solver speed
+against error. Every level axis states its reference (dB re 1 µm for texture, dB re 1 Pa for
+pressure); every legend sits outside the axes."""
 
 from __future__ import annotations
 
@@ -7,9 +9,9 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, Results, energetic_mean, modulus_label
+from roadtex.report.data import COLOURS, PRESSURE_DB, TEXTURE_DB, Results, energetic_mean, legend_outside, modulus_label
 from roadtex.spectra.analysis import band_regressions
-from roadtex.spectra.bands import OCTAVE_BANDS, REFERENCE_PRESSURE, nominal_label
+from roadtex.spectra.bands import OCTAVE_BANDS, nominal_label
 
 
 def band_axis(ax, labels: list[str], kind: str) -> None:
@@ -34,7 +36,8 @@ def fig_texture_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = enveloped[group].unique(maintain_order=True).to_list()
-    fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 0.6, 6.2), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
+                             layout="constrained")
     for column, name in enumerate(groups):
         top, bottom = axes[0, column], axes[1, column]
         base = original.filter(pl.col(group) == name)
@@ -46,12 +49,11 @@ def fig_texture_spectra(plt, results: Results):
             joined = rows.join(base.select("band", "texture_level"), on="band")
             bottom.plot([position[b] for b in joined["band"]], joined["enveloped_level"] - joined["texture_level"],
                         color=colour, lw=1.0, marker=".", label=modulus_label(e))
-        top.set(title=str(name), ylabel="texture level L_tx (dB re 1 µm)")
-        bottom.set(ylabel="enveloped − original (dB)")
+        top.set(title=str(name), ylabel=f"texture level L_tx ({TEXTURE_DB})")
+        bottom.set(ylabel="enveloped − original level (dB)")
         bottom.axhline(0, color="0.5", lw=0.7)
         band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
+    legend_outside(fig, axes[0, 0])
     return fig
 
 
@@ -61,7 +63,8 @@ def fig_pressure_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = spectra[group].unique(maintain_order=True).to_list()
-    fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 0.6, 3.6), squeeze=False, sharey=True)
+    fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
+                             layout="constrained")
     for ax, name in zip(axes[0], groups):
         for colour, e in zip(COLOURS, results.moduli):
             rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
@@ -69,27 +72,38 @@ def fig_pressure_spectra(plt, results: Results):
                     marker=".", label=modulus_label(e))
         ax.set_title(str(name))
         band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
-    axes[0, 0].set_ylabel(f"pressure level L_p (dB re {REFERENCE_PRESSURE:g} Pa)")
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
+    axes[0, 0].set_ylabel(f"pressure level L_p ({PRESSURE_DB})")
+    legend_outside(fig, axes[0, 0])
     return fig
+
+
+LEVELS = ("enveloped_level", "pressure_level", "texture_level")
 
 
 def octave_table(results: Results) -> pl.DataFrame:
     """Per run and E, the octave-band levels (third octaves n-1, n, n+1 summed in power into octave n)
-    of the enveloped profile and the pressure, energetically averaged over the run's segments."""
+    of the enveloped profile and the pressure, energetically averaged over the run's segments.
+
+    Only reported bands enter (:func:`~roadtex.report.data.read_reported_bands`); an octave is kept
+    where all three of its third octaves have a level. Levels in dB re 1 µm (texture) and dB re 1 Pa
+    (pressure). roadtex.spectra computes octave levels from the signals themselves
+    (:func:`~roadtex.spectra.octave_levels`), not from third-octave levels, so the report sums them
+    here: the job keeps only band levels."""
     kind = results.options.get("band_kind", "third_octave")
     bands = results.bands
     if kind == "third_octave":
         octave_of = {b + d: b for b in OCTAVE_BANDS for d in (-1, 0, 1)}
         bands = bands.with_columns(pl.col("band").replace_strict(octave_of, default=None).alias("octave"))
-        complete = bands.group_by("run_id", "segment", "youngs_modulus", "octave").agg(
+        # An octave needs all three of its third octaves reported, each with a level (a null level
+        # would otherwise drop out of the power sum silently).
+        complete = bands.filter(pl.col("octave").is_not_null()).group_by(
+            "run_id", "segment", "youngs_modulus", "octave").agg(
             pl.len().alias("parts"),
-            *[(10.0 * (10.0 ** (pl.col(c) / 10.0)).sum().log10()).alias(c)
-              for c in ("enveloped_level", "pressure_level", "texture_level")])
-        bands = complete.filter((pl.col("parts") == 3) & pl.col("octave").is_not_null()).rename({"octave": "band"})
+            *[pl.when(pl.col(c).is_not_nan().sum() == 3).then(10.0 * (10.0 ** (pl.col(c) / 10.0)).sum().log10())
+              .otherwise(None).alias(c) for c in LEVELS])
+        bands = complete.filter(pl.col("parts") == 3).drop("parts").rename({"octave": "band"})
     per_run = (bands.group_by("run_id", "youngs_modulus", "band")
-               .agg(*[energetic_mean(pl.col(c)).alias(c) for c in ("enveloped_level", "pressure_level", "texture_level")])
+               .agg(*[energetic_mean(pl.col(c)).alias(c) for c in LEVELS])
                .with_columns(pl.col("band").map_elements(nominal_label, return_dtype=pl.String).alias("label"))
                .sort("band", "youngs_modulus", "run_id"))
     return per_run
@@ -101,7 +115,8 @@ def fig_pressure_vs_texture(plt, results: Results):
     band_list = octaves["band"].unique().sort().to_list()
     columns = min(4, len(band_list))
     rows = int(np.ceil(len(band_list) / columns))
-    fig, axes = plt.subplots(rows, columns, figsize=(3.0 * columns + 0.5, 2.7 * rows + 0.4), squeeze=False)
+    fig, axes = plt.subplots(rows, columns, figsize=(3.0 * columns + 1.8, 2.7 * rows + 0.4), squeeze=False,
+                             layout="constrained")
     for ax in axes.ravel()[len(band_list):]:
         ax.set_visible(False)
     for ax, band in zip(axes.ravel(), band_list):
@@ -113,10 +128,9 @@ def fig_pressure_vs_texture(plt, results: Results):
                 xs = np.array([pts["enveloped_level"].min(), pts["enveloped_level"].max()])
                 ax.plot(xs, fit["slope"][0] * xs + fit["intercept"][0], color=colour, lw=1.0)
         ax.set_title(f"octave {pts['label'][0] if pts.height else band} mm")
-        ax.set_xlabel("enveloped texture level (dB re 1 µm)")
-        ax.set_ylabel("pressure level (dB)")
-    axes[0, 0].legend(fontsize=6)
-    fig.tight_layout()
+        ax.set_xlabel(f"enveloped texture level ({TEXTURE_DB})")
+        ax.set_ylabel(f"pressure level ({PRESSURE_DB})")
+    legend_outside(fig, axes[0, 0])
     return fig, fits
 
 
@@ -125,7 +139,7 @@ def fig_speed_vs_error(plt, benchmark: dict[str, Any]):
     if not rows:
         return None
     table = pl.DataFrame(rows, infer_schema_length=None)
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    fig, ax = plt.subplots(figsize=(8, 4.2), layout="constrained")
     markers = {"westergaard": "o", "self_affine": "s"}
     for colour, ((solver,), group) in zip(COLOURS, table.group_by("solver", maintain_order=True)):
         for case, sub in group.group_by("case", maintain_order=True):
@@ -133,5 +147,5 @@ def fig_speed_vs_error(plt, benchmark: dict[str, Any]):
                        label=f"{solver} ({case[0]})")
     ax.set(xscale="log", yscale="log", xlabel="relative L1 pressure error", ylabel="time per solve (s)",
            title="Speed against error (benchmark)")
-    ax.legend(fontsize=6)
+    legend_outside(fig, ax)
     return fig
