@@ -89,7 +89,7 @@ def fig_pressures(plt, examples: list[Example]):
             ax.plot(x, pressure[view] / 1e6, color=colour, lw=0.9, label=modulus_label(e))
         ax.set_yscale("symlog", linthresh=0.1)
 
-    return per_group(plt, examples, draw, "p (MPa)", "Contact pressure (INRETS periodic model)")
+    return per_group(plt, examples, draw, "pressure p (MPa)", "Contact pressure (INRETS periodic model)")
 
 
 def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], mean_pressure: float):
