@@ -30,8 +30,8 @@ from roadtex.archive.store import (
     write_atomically,
     write_json,
 )
+from roadtex.comparisons.figures import edge_effect
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
-from roadtex.models.comparisons import edge_effect
 
 Engine = Literal["local", "dask"]
 
