@@ -80,9 +80,10 @@ def penetration_ranking(heights: np.ndarray | Sequence[float], dx: float, *,
         ``summary``: one row per width class: ``width_class``, ``valleys``, ``width_min``,
         ``width_median``, ``width_max``, ``depth_median`` (m), ``von_meier_median`` (m), one column
         ``inrets_median_<E in MPa>`` (m) per E, ``modulus_below`` and ``modulus_above`` (Pa: the
-        adjacent E values whose INRETS medians bracket the von Meier median: stiffer rubber
-        penetrates less; null beyond the range) and ``matched_modulus`` (Pa, log-log interpolation
-        between them; null when not bracketed).
+        adjacent E values whose INRETS medians bracket the von Meier median, stiffer rubber
+        penetrating less; beyond the range, null on the open side: (10 MPa, null) means "stiffer
+        than 10 MPa") and ``matched_modulus`` (Pa, log-log interpolation between them; null when
+        not bracketed or a median is not positive).
         ``holds``: the narrowest class is bracketed by 1 and 2 MPa and the widest by 5 and 10 MPa.
     """
     if int(classes) < 2:
@@ -126,7 +127,8 @@ def _modulus_column(modulus: float) -> str:
 
 def _bracket(value: float, moduli: np.ndarray, medians: np.ndarray) -> tuple[float | None, float | None,
                                                                                  float | None]:
-    """The adjacent moduli (ascending) whose medians (falling with E) bracket ``value``."""
+    """The adjacent moduli (ascending) whose medians (falling with E) bracket ``value``; beyond the
+    range, the end modulus on the near side and None on the open side."""
     for i in range(moduli.size - 1):
         hi, lo = medians[i], medians[i + 1]   # softer penetrates more
         if lo <= value <= hi:
@@ -136,7 +138,9 @@ def _bracket(value: float, moduli: np.ndarray, medians: np.ndarray) -> tuple[flo
             else:
                 matched = None
             return float(moduli[i]), float(moduli[i + 1]), matched
-    return None, None, None
+    if value > medians[0]:
+        return None, float(moduli[0]), None        # penetrates more than the softest rubber
+    return float(moduli[-1]), None, None           # less than the stiffest
 
 
 # --------------------------------------------------------------------------------------------------
@@ -194,10 +198,10 @@ def depth_effect(profiles: Mapping[str, np.ndarray | Sequence[float]], dx: float
         ``data``: one row per (profile, E, band): ``profile``, ``youngs_modulus``, ``band``, ``label``,
         ``centre_wavelength``, ``original_db``, ``enveloped_db`` (reported bands only).
         ``summary``: one row per (E, band): ``depth_effect_original_db`` and
-        ``depth_effect_enveloped_db`` (porous minus dense) and ``reduction_db`` (the first minus the
-        second).
-        ``holds``: at every E, envelopment reduces the depth effect in at least 80 % of the bands
-        where the original depth effect exceeds 1 dB.
+        ``depth_effect_enveloped_db`` (porous minus dense), ``reduction_db`` (the first minus the
+        second) and ``removed`` (the original depth effect exceeds 1 dB and the enveloped one does not).
+        ``holds``: at every E, the depth effect is removed in at least 80 % of the bands where the
+        original one exceeds 1 dB.
     """
     for name in (porous, dense):
         if name not in profiles:
@@ -223,12 +227,14 @@ def depth_effect(profiles: Mapping[str, np.ndarray | Sequence[float]], dx: float
                .select(*keys, (pl.col("original_db") - pl.col("original_db_dense")).alias("depth_effect_original_db"),
                        (pl.col("enveloped_db") - pl.col("enveloped_db_dense")).alias("depth_effect_enveloped_db"))
                .with_columns((pl.col("depth_effect_original_db") - pl.col("depth_effect_enveloped_db"))
-                             .alias("reduction_db"))
+                             .alias("reduction_db"),
+                             ((pl.col("depth_effect_original_db") > 1.0) & (pl.col("depth_effect_enveloped_db") <= 1.0))
+                             .alias("removed"))
                .sort("youngs_modulus", "band"))
     holds = True
     for modulus in moduli:
         rows = summary.filter((pl.col("youngs_modulus") == modulus) & (pl.col("depth_effect_original_db") > 1.0))
-        if rows.height and (rows["reduction_db"] > 0).mean() < 0.8:  # type: ignore[operator]
+        if rows.height and float(rows["removed"].mean()) < 0.8:  # type: ignore[arg-type]
             holds = False
     return SeedCheck(data, summary, holds, "envelopment removes porous asphalt's depth effect across the bands")
 
@@ -237,7 +243,7 @@ def _mean_levels(values: np.ndarray, dx: float, kind: BandKind, method: Method) 
     """Energy mean over rows of the periodic band levels (reported bands only)."""
     result = band_levels(values, dx, kind=kind, periodic=True, method=method)
     with np.errstate(divide="ignore", invalid="ignore"):
-        level = 10 * np.log10(np.nanmean(result.mean_square, axis=0) / result.reference**2)
+        level = 10 * np.log10(np.mean(result.mean_square, axis=0) / result.reference**2)
     return result.bands.select("band", "label", "centre_wavelength", "reported").with_columns(
         pl.Series("level_db", level)).filter(pl.col("reported")).drop("reported")
 
