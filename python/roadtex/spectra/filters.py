@@ -9,8 +9,8 @@ prototype order is 3 (a 6-pole band-pass in three second-order sections), which 
 mask (:data:`CLASS1_MASK`) with margin for a third octave centred at up to 0.2 of the sampling rate:
 21 dB down at the octave-away breakpoint (17.5 required), 46 dB two octaves away (42), 0.6 dB at
 G^(3/8) (1.3 allowed). Closer to Nyquist the bilinear warping widens the lower skirt, and an octave
-band is wider: the order is raised band by band (to 4 for the top third octaves and most octaves, 5 for
-the top octave) until the digital response meets the mask with 0.1 dB to spare.
+band is wider: the order is raised band by band until the digital response meets the mask with 0.1 dB
+to spare (order 4 for the few bands whose centre lies above about a fifth of the sampling rate).
 
 **Decimation.** A band-pass whose centre is a tiny fraction of the sampling rate has poles crowded at
 z = 1 and is badly conditioned. So each band is filtered at the rate 1 / (2^k dx) with the largest
@@ -230,9 +230,8 @@ def filtered_mean_squares(block: np.ndarray, bank: FilterBank, periodic: bool) -
     Returns (mean_square, measured_length): (rows, bands) mean squares (NaN where the band has no
     filter or no sample left after settling) and, per band, the length (m) the mean is taken over.
     """
-    rows = block.shape[0]
     n_bands = len(bank.bands)
-    mean_square = np.full((rows, n_bands), np.nan)
+    mean_square = np.full((block.shape[0], n_bands), np.nan)
     measured = np.zeros(n_bands)
     by_level: dict[int, list[int]] = {}
     for i, f in enumerate(bank.bands):
@@ -266,5 +265,4 @@ def filtered_mean_squares(block: np.ndarray, bank: FilterBank, periodic: bool) -
             if current.shape[1] < 2:
                 break
             current = signal.sosfilt(bank.decimator, current, axis=1)[:, ::2]
-    del rows
     return mean_square, measured
