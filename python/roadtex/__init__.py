@@ -14,7 +14,7 @@ comparisons), :mod:`roadtex.spectra` (bands, levels, regressions, calibration),
 :mod:`roadtex.archive` (the bulk job), :mod:`roadtex.report`; errors in :mod:`roadtex.errors`.
 """
 
-from roadtex import errors
+from roadtex import comparisons, errors
 from roadtex._core import __version__
 from roadtex.archive import ProcessingOptions, build_manifest, process, read_manifest, read_profiles
 from roadtex.errors import (
@@ -30,7 +30,7 @@ from roadtex.errors import (
                             RoadtexWarning,
                             SolverError,
 )
-from roadtex.models import ClappResult, ContactBatch, ContactResult, clapp, comparisons, contact, contact_many, reference, von_meier
+from roadtex.models import ClappResult, ContactBatch, ContactResult, clapp, contact, contact_many, reference, von_meier
 from roadtex.profiles import MpdResult, Profile, Segments, mpd, pavements, read_profile, synthetic, synthetic_pavement, write_profile
 from roadtex.report import build_report
 from roadtex.spectra import (

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -13,8 +14,9 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
-#: ../shared/data/captif-slp beside the repository (see the brief: real data lives outside the repo).
-CAPTIF_DIR = HERE.parents[2] / "shared" / "data" / "captif-slp"
+#: ../shared/data/captif-slp beside the repository (see the brief: real data lives outside the repo);
+#: ROADTEX_CAPTIF_DIR overrides it (a git worktree elsewhere than beside ../shared).
+CAPTIF_DIR = Path(os.environ.get("ROADTEX_CAPTIF_DIR") or HERE.parents[2] / "shared" / "data" / "captif-slp")
 
 #: The three laser-profilometer files captif-slp publishes (CAPTIF, Aylesbury, 11 October 2021).
 CAPTIF_FILE_NAMES = (

@@ -41,8 +41,8 @@ from roadtex.archive.store import (
     write_atomically,
     write_json,
 )
+from roadtex.comparisons.figures import edge_effect
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
-from roadtex.models.comparisons import edge_effect
 
 Engine = Literal["local", "dask"]
 #: Per-run file stem -> the combined table whose columns it has.

@@ -1,5 +1,6 @@
 """Contact models of rubber on a road profile: the INRETS periodic (and finite) model, the von Meier
-envelope, Clapp's sub-profile model, closed-form references, and the seed's comparisons."""
+envelope, Clapp's sub-profile model and closed-form references (the seed's comparisons are in
+:mod:`roadtex.comparisons`)."""
 
 from roadtex.models.clapp import ClappResult, clapp
 from roadtex.models.contact import contact, contact_many

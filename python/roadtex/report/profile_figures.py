@@ -9,7 +9,7 @@ from typing import Any, Callable
 import numpy as np
 import polars as pl
 
-from roadtex.models.comparisons import SEED_D_STAR, penetration_table, von_meier_envelopes
+from roadtex.comparisons.figures import SEED_D_STAR, penetration_table, von_meier_envelopes
 from roadtex.report.data import COLOURS, MM, Example, legend_outside, megapascals, modulus_label
 
 

@@ -2,7 +2,9 @@
 level differences, regressions, and the choice of the rubber modulus from noise data.
 
 - :mod:`roadtex.spectra.bands`: band numbering, labels, reporting limits (:func:`band_table`);
-- :mod:`roadtex.spectra.levels`: band levels of profiles and pressures (the DFT method);
+- :mod:`roadtex.spectra.levels`: band levels of profiles and pressures (the DFT method, or the filter
+  method with ``method="filter"``);
+- :mod:`roadtex.spectra.filters`: the class-1 band filters of the filter method (ISO 13473-4:2024);
 - :mod:`roadtex.spectra.analysis`: frequencies at a speed, level differences, regressions;
 - :mod:`roadtex.spectra.calibration`: :func:`calibrate_modulus`.
 """
