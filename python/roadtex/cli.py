@@ -58,7 +58,7 @@ def process_command(args: argparse.Namespace) -> int:
             poisson=args.poisson, segment_length=args.segment_length, segment_overlap=args.overlap,
             dx=args.dx, spike_alpha=None if args.spike_alpha <= 0 else args.spike_alpha,
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
-            band_kind=args.bands, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
+            band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
             reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
         with warnings.catch_warnings():
             # the plausibility of E and P was settled above (--allow-implausible)
@@ -121,6 +121,9 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tol", type=float, default=defaults.tol, help="solver tolerance (default 1e-6)")
     parser.add_argument("--bands", choices=["third_octave", "octave"], default=defaults.band_kind,
                         help="band kind of the spectra (default third_octave)")
+    parser.add_argument("--band-method", choices=["dft", "filter"], default=defaults.band_method,
+                        help="band levels by exact DFT sums (default) or by IEC 61260 class-1 band filters "
+                             "(ISO 13473-4:2024's normative method)")
     parser.add_argument("--speed", type=float, default=None, metavar="KMH",
                         help="vehicle speed in km/h for band frequencies when the manifest has none")
     reading = parser.add_argument_group("reading files (defaults for every run; manifest columns of the same "

@@ -81,7 +81,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # The contact model sees each segment as one period, so the original segments are analysed
     # the same way as its (periodic) output: exact DFT band powers, no window. Differences
     # enveloped - original then come from the envelopment alone, not from a change of method.
-    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True))
+    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True, method=options.band_method))
     if not texture.bands["reported"].any():
         raise RunFailure("spectra", InvalidInputError(
             f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
@@ -105,9 +105,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         count = heights.shape[0]
         envelopes = batch.envelope.reshape(count * n_moduli, n_points)
         pressures = batch.pressure.reshape(count * n_moduli, n_points)
-        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True))
+        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True, method=options.band_method))
         pressure = run_stage("spectra", lambda: band_levels(
-            pressures, dx, kind=options.band_kind, periodic=True, reference=REFERENCE_PRESSURE))
+            pressures, dx, kind=options.band_kind, periodic=True, method=options.band_method, reference=REFERENCE_PRESSURE))
         if options.keep_profiles:
             profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
             profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)

@@ -66,6 +66,9 @@ class ProcessingOptions:
             solution (``contact_many(warm_start=True)``): every result meets ``tol``.
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
         band_kind: "third_octave" or "octave".
+        band_method: "dft" (the default: exact DFT band sums, ISO 13473-4's informative method) or
+            "filter" (one-third-octave band-pass filters, IEC 61260-1 class 1, the 2024 edition's
+            normative method; see :func:`roadtex.spectra.band_levels`).
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
         keep_profiles: also write the enveloped profiles and pressures (large).
         reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
@@ -84,6 +87,7 @@ class ProcessingOptions:
     tol: float = 1e-6
     max_iterations: int = 2000
     band_kind: str = "third_octave"
+    band_method: str = "dft"
     speed_kmh: float | None = None
     keep_profiles: bool = False
     reader_defaults: dict[str, object] = field(default_factory=dict)
@@ -109,6 +113,8 @@ class ProcessingOptions:
             if value is not None:
                 object.__setattr__(self, name, positive(value, name, unit))
         check_band_kind(self.band_kind)
+        if self.band_method not in ("dft", "filter"):
+            raise InvalidInputError(f"band_method must be 'dft' or 'filter', got {self.band_method!r}")
         unknown = set(self.reader_defaults) - set(READ_OPTIONS)
         if unknown:
             raise InvalidInputError(f"reader_defaults has unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
