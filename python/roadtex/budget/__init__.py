@@ -8,9 +8,10 @@ numerical error, and what that costs.
 """
 
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH, budget_bands
+from roadtex.budget.pilot import BudgetChoice, choose_setting
 from roadtex.budget.sizes import five_smooth_ladder, is_five_smooth, next_five_smooth, previous_five_smooth
 from roadtex.budget.study import REFERENCE_TOL, convergence_study
 
 __all__ = ["DEFAULT_ERROR_BUDGET_DB", "NOISE_FREQUENCY_RANGE", "NOISE_SPEED_RANGE_KMH", "budget_bands",
            "five_smooth_ladder", "is_five_smooth", "next_five_smooth", "previous_five_smooth", "REFERENCE_TOL",
-           "convergence_study"]
+           "convergence_study", "BudgetChoice", "choose_setting"]
