@@ -109,6 +109,11 @@ def tolerance_effect(rows: list[dict], pilot: Pilot) -> float:
     return 2.0 * max(gains) + 1e-3 if gains else float(np.inf)
 
 
+def dxs_used(rows: list[dict], dx: float) -> float:
+    """The dx of the study rows nearest ``dx`` (rows carry segment_length / points)."""
+    return min({r["dx"] for r in rows}, key=lambda used: abs(used - dx))
+
+
 def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
                    mean_pressure: float, segment_length: float = 0.5,
                    budget_db: float = DEFAULT_ERROR_BUDGET_DB, forced_dx: float | None = None,
@@ -162,7 +167,12 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
     for (dx, _), (worst, seconds) in list(summary.items()):  # stage 2: tighter tols where they could win
         if budget < worst <= budget + slack and seconds < best and len(tols) > 1:
             rows.extend(candidate_rows(pilot, dx, tols[1:]))
+    if not any(r["reference"] for r in rows):  # no solve: the pilot's own reference levels
+        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL]))
     summary = summarise(rows)
+    if forced_dx_f is not None or forced_tol_f is not None:  # the reference is there for comparison only
+        summary = {k: v for k, v in summary.items() if (forced_dx_f is None or k[0] == dxs_used(rows, forced_dx_f))
+                   and (forced_tol_f is None or k[1] == forced_tol_f)}
     within = {k: v for k, v in summary.items() if v[0] <= budget}
     if within:
         key = min(within, key=lambda k: (within[k][1], -k[0]))
@@ -170,8 +180,6 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         key = min(summary, key=lambda k: (summary[k][0], summary[k][1]))
     worst, seconds = summary[key]
     chosen = [r for r in rows if (r["dx"], r["tol"]) == key]
-    if not any(r["reference"] for r in rows):
-        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL]))
     return BudgetChoice(
         dx=key[0], tol=key[1], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,
         band_error_db={r["band"]: r["level_error_db"] for r in chosen},
