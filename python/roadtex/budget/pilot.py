@@ -1,15 +1,11 @@
 """The pilot of a run: the cheapest (dx, tol) whose estimated level errors stay within the budget.
 
 :func:`choose_setting` builds the reference of :mod:`roadtex.budget.study` on a few pilot segments,
-then searches the candidates cheaply:
-
-1. every candidate dx at the loosest candidate tol (the cheapest solve at that dx);
-2. the tighter tolerances only at the dx values cheaper than the best setting found so far that
-   failed at the loosest tol by less than the most a tighter tol can gain (see
-   :func:`tolerance_effect`): only they could still win.
-
-Among the settings within the budget in every budget band it keeps the one with the lowest measured
-time per metre; when none is, the one with the smallest worst error (``within_budget`` False).
+then walks the candidate dx from the coarsest (cheapest) to the finest, each at the loosest tol and
+then at tighter ones only while the miss is smaller than what a tighter tol can gain (see
+:func:`tolerance_effect`), and stops at the first setting within the budget in every budget band.
+When none is, it keeps the setting with the smallest worst error, normally the finest
+(``within_budget`` False).
 Forced settings (``forced_dx``, ``forced_tol``) restrict the search to them and are still estimated.
 """
 
@@ -159,14 +155,24 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                   reverse=True)
 
     rows: list[dict] = []
-    for dx in dxs:  # stage 1: every dx at the loosest tol
-        rows.extend(candidate_rows(pilot, dx, tols[:1]))
-    summary = summarise(rows)
-    best = min((v[1] for v in summary.values() if v[0] <= budget), default=np.inf)
-    slack = tolerance_effect(rows, pilot)
-    for (dx, _), (worst, seconds) in list(summary.items()):  # stage 2: tighter tols where they could win
-        if budget < worst <= budget + slack and seconds < best and len(tols) > 1:
-            rows.extend(candidate_rows(pilot, dx, tols[1:]))
+    slack = 0.0
+    if len(tols) > 1:  # the tol error at the finest dx bounds what tighter tolerances can gain
+        rows.extend(candidate_rows(pilot, pilot.dx, tols[:1]))
+        slack = tolerance_effect(rows, pilot)
+    # Coarse to fine (cheap to dear): stop at the first setting within the budget.
+    for dx in sorted(dxs, reverse=True):
+        found = False
+        for tol in tols:
+            done = [r for r in rows if r["tol"] == tol and abs(r["dx"] - dx) <= 1e-9 * dx]
+            new = done or candidate_rows(pilot, dx, [tol])
+            if not done:
+                rows.extend(new)
+            worst = max((r["level_error_db"] for r in new if r["in_budget"]), default=0.0)
+            found = worst <= budget
+            if found or worst > budget + slack:  # within, or beyond what a tighter tol can gain
+                break
+        if found:
+            break
     if not any(r["reference"] for r in rows):  # no solve: the pilot's own reference levels
         rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL]))
     summary = summarise(rows)
