@@ -27,6 +27,7 @@ Time per metre is the wall time of the pilot solves (every modulus) per metre of
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -210,9 +211,10 @@ def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
     """
     padded = np.concatenate([differences[..., :1], differences, differences[..., -1:]], axis=-1)
     pooled = np.concatenate([padded[..., :-2], padded[..., 1:-1], padded[..., 2:]], axis=0)
-    with np.errstate(invalid="ignore"):
-        rms = np.sqrt(np.mean(pooled ** 2, axis=0))
-    return np.maximum(pooled.max(axis=0), rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
+    with warnings.catch_warnings():  # NaN marks bands not reported at a candidate: skipped
+        warnings.simplefilter("ignore", RuntimeWarning)
+        rms = np.sqrt(np.nanmean(pooled ** 2, axis=0))
+        return np.fmax(np.nanmax(pooled, axis=0), rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
 
 
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
@@ -243,10 +245,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]
         else:
             solved, ok, seconds = solve_levels(pilot, heights, used, tol)
             seconds_per_metre = seconds / (heights.shape[0] * pilot.segment_length)
-        if solved.shape[-1] == pilot.levels.shape[-1]:
-            measured = difference(solved, pilot.levels)
-        else:  # pragma: no cover - same band list by construction
-            measured = np.full_like(pilot.levels, np.inf)
+        measured = np.where(ok, difference(solved, pilot.levels), np.nan)  # NaN: not reported at dx
         errors = SPREAD_FACTOR * extreme(np.moveaxis(measured, 1, 0), pilot.run_rows) + pilot.reference_error
         errors = np.where(ok, errors, np.inf)
         for j, band in enumerate(pilot.bands.iter_rows(named=True)):
