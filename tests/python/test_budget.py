@@ -196,3 +196,17 @@ def test_captif_choice_meets_the_budget_against_a_three_times_finer_solve(captif
     choice = roadtex.choose_setting(profile, youngs_moduli=moduli, mean_pressure=2e5)
     actual = actual_errors(profile, choice.dx, choice.tol, moduli, 0.5, refine=3)
     check_choice(choice, actual, within=True)
+
+
+def test_one_pilot_for_a_group_of_runs() -> None:
+    runs = [roadtex.synthetic_pavement("dense_asphalt", 0.3, 0.05e-3, seed=s) for s in (4, 5)]
+    study = roadtex.convergence_study(runs, youngs_modulus=2.5e6, mean_pressure=2e5, segment_length=0.1,
+                                      dx_candidates=[0.05e-3, 0.1 / 1000], tol_candidates=[1e-6], n_segments=2,
+                                      include_reference_error=False)
+    # 2 pilot segments for the group (its first and last); without the reference's own error, the
+    # file's dx at tol 1e-6 differs from the reference only by the solver tolerance: a tiny error
+    assert (study["pilot_segments"] == 2).all()
+    assert (study.filter(pl.col("points") == 2000)["level_error_db"] < 1e-3).all()
+    with pytest.raises(roadtex.InvalidInputError):
+        roadtex.convergence_study([runs[0], roadtex.synthetic_pavement("dense_asphalt", 0.3, 0.1e-3)],
+                                  youngs_modulus=2.5e6, mean_pressure=2e5, segment_length=0.1)
