@@ -11,12 +11,14 @@ True
 Subpackages, by concern: :mod:`roadtex.profiles` (the profile model, conditioning, segments,
 readers, MPD, synthetic profiles), :mod:`roadtex.models` (contact, von Meier, Clapp, closed forms,
 comparisons), :mod:`roadtex.spectra` (bands, levels, regressions, calibration),
-:mod:`roadtex.archive` (the bulk job), :mod:`roadtex.report`; errors in :mod:`roadtex.errors`.
+:mod:`roadtex.budget` (the error budget: convergence study and pilot), :mod:`roadtex.archive`
+(the bulk job), :mod:`roadtex.report`; errors in :mod:`roadtex.errors`.
 """
 
 from roadtex import comparisons, errors
 from roadtex._core import __version__
 from roadtex.archive import ProcessingOptions, build_manifest, process, read_manifest, read_profiles
+from roadtex.budget import BudgetChoice, choose_setting, convergence_study
 from roadtex.errors import (
                             ArchiveWriteError,
                             ClappError,
@@ -57,6 +59,7 @@ __all__ = [
     "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
     "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",
     "CalibrationResult", "calibrate_modulus",
+    "BudgetChoice", "choose_setting", "convergence_study",
     "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report",
     "Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement",
     "pavements", "synthetic",

@@ -1,0 +1,195 @@
+"""The pilot of a run: the cheapest (dx, tol) whose estimated level errors stay within the budget.
+
+:func:`choose_setting` builds the reference of :mod:`roadtex.budget.study` on a few pilot segments,
+then walks the candidate dx from the coarsest (cheapest) to the finest, each at the loosest tol and
+then at tighter ones only while the miss is smaller than what a tighter tol can gain (see
+:func:`tolerance_effect`), and stops at the first setting within the budget in every budget band.
+When none is, it keeps the setting with the smallest worst error, normally the finest
+(``within_budget`` False).
+Forced settings (``forced_dx``, ``forced_tol``) restrict the search to them and are still estimated.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import polars as pl
+
+from roadtex._checks import positive
+from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB
+from roadtex.budget.study import (
+    DEFAULT_PILOT_SEGMENTS,
+    DEFAULT_TOLERANCES,
+    REFERENCE_TOL,
+    Pilot,
+    as_frame,
+    build_pilot,
+    candidate_rows,
+    check_candidates,
+    default_dx_ladder,
+)
+from roadtex.profiles.profile import Profile
+
+
+@dataclass(frozen=True)
+class BudgetChoice:
+    """The setting a pilot chose, with its error estimates. All values SI.
+
+    Attributes:
+        dx: sampling interval to process the run with (m); ``Profile.conditioned(dx=...)``.
+        tol: solver tolerance to process the run with.
+        points: points per segment at ``dx``.
+        budget_db: the budget (dB) the choice was made for.
+        within_budget: whether ``worst_error_db`` <= ``budget_db``.
+        band_error_db: band number -> upper estimate (dB) of the numerical error of that band's
+            levels at (dx, tol): worst over segments, moduli and the three level kinds (texture,
+            enveloped, pressure); every band reported at the file's dx, budget bands or not
+            (inf where ``dx`` is too coarse to report the band).
+        budget_bands: the band numbers the budget applies to (see :mod:`roadtex.budget.noise`).
+        worst_error_db: the largest ``band_error_db`` over the budget bands (dB).
+        seconds_per_metre: measured solve time at (dx, tol), every modulus, per metre of road (s/m).
+        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        pilot_seconds: wall time of the whole pilot (s).
+        forced: whether dx or tol was forced.
+        study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
+    """
+
+    dx: float
+    tol: float
+    points: int
+    budget_db: float
+    within_budget: bool
+    band_error_db: dict[int, float]
+    budget_bands: tuple[int, ...]
+    worst_error_db: float
+    seconds_per_metre: float
+    finest_seconds_per_metre: float
+    pilot_seconds: float
+    forced: bool
+    study: pl.DataFrame
+
+    @property
+    def speedup(self) -> float:
+        """finest_seconds_per_metre / seconds_per_metre: how much cheaper the run is than at full resolution."""
+        return self.finest_seconds_per_metre / self.seconds_per_metre
+
+
+def summarise(rows: list[dict]) -> dict[tuple[float, float], tuple[float, float]]:
+    """(dx, tol) -> (worst budget-band error dB, seconds per metre)."""
+    out: dict[tuple[float, float], tuple[float, float]] = {}
+    for row in rows:
+        key = (row["dx"], row["tol"])
+        worst, seconds = out.get(key, (0.0, row["seconds_per_metre"]))
+        if row["in_budget"]:
+            worst = max(worst, row["level_error_db"])
+        out[key] = (worst, seconds)
+    return out
+
+
+def tolerance_effect(rows: list[dict], pilot: Pilot) -> float:
+    """How much tightening the loosest tol can lower an estimate (dB), judged at the finest dx.
+
+    At the file's dx an estimate at the loosest tol is (tol error) + (reference error), so the
+    tol error there is known. The solver's criterion is a gap relative to the profile's
+    peak-to-valley height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the
+    level errors shrink as dx grows, so the tol error at the finest dx bounds the gain at every
+    coarser one (doubled for safety). With no finest-dx row every dx gets the tighter tolerances.
+    """
+    bands = pilot.bands["band"].to_list()
+    gains = [max(r["enveloped_error_db"] - pilot.reference_error[0, bands.index(r["band"])],
+                 r["pressure_error_db"] - pilot.reference_error[1, bands.index(r["band"])])
+             for r in rows if abs(r["dx"] - pilot.dx) <= 1e-9 * pilot.dx and r["in_budget"]]
+    return 2.0 * max(gains) + 1e-3 if gains else float(np.inf)
+
+
+def dxs_used(rows: list[dict], dx: float) -> float:
+    """The dx of the study rows nearest ``dx`` (rows carry segment_length / points)."""
+    return min({r["dx"] for r in rows}, key=lambda used: abs(used - dx))
+
+
+def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
+                   mean_pressure: float, segment_length: float = 0.5,
+                   budget_db: float = DEFAULT_ERROR_BUDGET_DB, forced_dx: float | None = None,
+                   forced_tol: float | None = None, poisson: float = 0.5,
+                   n_segments: int = DEFAULT_PILOT_SEGMENTS, band_kind: str = "third_octave",
+                   spike_alpha: float | None = None, dx_candidates: Sequence[float] | None = None,
+                   tol_candidates: Sequence[float] | None = None, max_iterations: int = 2000,
+                   threads: int | None = None, include_reference_error: bool = True) -> BudgetChoice:
+    """The cheapest (dx, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
+
+    Args:
+        profile: a run as read (:func:`roadtex.read_profile`), or a sequence of runs of the same
+            device and pavement (one pilot for the group: cheaper per run).
+        youngs_moduli: rubber moduli E (Pa) the job solves for.
+        mean_pressure: P (Pa).
+        segment_length: the job's segment length (m).
+        budget_db: largest numerical error (dB) allowed on any level in a budget band.
+        forced_dx: process at this dx (m) whatever the budget (``--dx``); still estimated.
+        forced_tol: process at this tol whatever the budget (``--tol``); still estimated.
+        poisson, band_kind, spike_alpha, max_iterations, threads: as in the job.
+        n_segments: pilot segments, spread evenly along the run(s).
+        dx_candidates, tol_candidates: override the candidate ladders (see :func:`convergence_study`).
+        include_reference_error: as in :func:`convergence_study` (True: against the converged answer).
+
+    Returns:
+        A :class:`BudgetChoice`.
+
+    Raises:
+        InvalidInputError: bad arguments, a run too short for one segment, no reported band.
+    """
+    started = time.perf_counter()
+    budget = positive(budget_db, "budget_db", "dB")
+    forced_dx_f = None if forced_dx is None else positive(forced_dx, "forced_dx", "m")
+    forced_tol_f = None if forced_tol is None else positive(forced_tol, "forced_tol", "relative residual")
+    dxs_given = check_candidates(dx_candidates, "dx_candidates")
+    tols_given = check_candidates(tol_candidates, "tol_candidates")
+    pilot = build_pilot(profile, youngs_moduli=youngs_moduli, mean_pressure=mean_pressure, poisson=poisson,
+                        segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
+                        spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
+                        include_reference_error=include_reference_error)
+    dxs = [forced_dx_f] if forced_dx_f is not None else (dxs_given or default_dx_ladder(pilot))
+    tols = sorted([forced_tol_f] if forced_tol_f is not None else (tols_given or list(DEFAULT_TOLERANCES)),
+                  reverse=True)
+
+    rows: list[dict] = []
+    slack = 0.0
+    if len(tols) > 1:  # the tol error at the finest dx bounds what tighter tolerances can gain
+        rows.extend(candidate_rows(pilot, pilot.dx, tols[:1]))
+        slack = tolerance_effect(rows, pilot)
+    # Coarse to fine (cheap to dear): stop at the first setting within the budget.
+    for dx in sorted(dxs, reverse=True):
+        found = False
+        for tol in tols:
+            done = [r for r in rows if r["tol"] == tol and abs(r["dx"] - dx) <= 1e-9 * dx]
+            new = done or candidate_rows(pilot, dx, [tol])
+            if not done:
+                rows.extend(new)
+            worst = max((r["level_error_db"] for r in new if r["in_budget"]), default=0.0)
+            found = worst <= budget
+            if found or worst > budget + slack:  # within, or beyond what a tighter tol can gain
+                break
+        if found:
+            break
+    if not any(r["reference"] for r in rows):  # no solve: the pilot's own reference levels
+        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL]))
+    summary = summarise(rows)
+    if forced_dx_f is not None or forced_tol_f is not None:  # the reference is there for comparison only
+        summary = {k: v for k, v in summary.items() if (forced_dx_f is None or k[0] == dxs_used(rows, forced_dx_f))
+                   and (forced_tol_f is None or k[1] == forced_tol_f)}
+    within = {k: v for k, v in summary.items() if v[0] <= budget}
+    if within:
+        key = min(within, key=lambda k: (within[k][1], -k[0]))
+    else:
+        key = min(summary, key=lambda k: (summary[k][0], summary[k][1]))
+    worst, seconds = summary[key]
+    chosen = [r for r in rows if (r["dx"], r["tol"]) == key]
+    return BudgetChoice(
+        dx=key[0], tol=key[1], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,
+        band_error_db={r["band"]: r["level_error_db"] for r in chosen},
+        budget_bands=tuple(r["band"] for r in chosen if r["in_budget"]), worst_error_db=worst,
+        seconds_per_metre=seconds, finest_seconds_per_metre=pilot.seconds_per_metre,
+        pilot_seconds=time.perf_counter() - started, forced=forced_dx_f is not None or forced_tol_f is not None,
+        study=as_frame(rows))

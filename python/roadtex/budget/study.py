@@ -1,0 +1,337 @@
+"""How the band levels of a run converge with the sampling interval and the solver tolerance.
+
+The engine of the error budget (:func:`roadtex.budget.choose_setting`) and its public face,
+:func:`convergence_study`. For a run (or a group of runs of the same device and pavement):
+
+1. **Reference**: the run conditioned at the file's own dx, cut into segments; a few *pilot*
+   segments, spread evenly along the run, are solved at the reference tolerance (1e-10).
+2. **Reference's own error** (Richardson, first order, from the two finest settings): the pilot
+   segments are also solved at dx / 2, each sample repeated twice (the same profile as the
+   interval-averaging resampler sees it: averaging it back to dx gives the file exactly). With an
+   error ~ C dx, the reference's error is 2 |L(dx / 2) - L(dx)|, spread to the whole run as in 4.
+3. **Candidates**: the run resampled to each candidate dx, the pilot segments solved at each
+   candidate tol; the difference of every level from the reference's.
+4. **Estimate** per (setting, band), each an upper estimate of |level - converged level| on any
+   row of the run (any segment, any modulus):
+
+   - texture (resampling only, no solve): measured on *every* segment of the run, exactly;
+   - enveloped and pressure levels: from the pilot rows (segments x moduli), the larger of their
+     largest difference and the largest difference expected among all of the run's rows for
+     differences of the pilot rows' root mean square (Gaussian extreme value: rms x sqrt(2 ln n),
+     n the run's row count; each band pooled with its two neighbours), times SPREAD_FACTOR (2),
+     plus the reference's own error (step 2).
+
+Time per metre is the wall time of the pilot solves (every modulus) per metre of pilot segments.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import polars as pl
+
+from roadtex._checks import poisson_ratio, positive, whole_number
+from roadtex.budget.noise import in_budget
+from roadtex.budget.sizes import five_smooth_ladder
+from roadtex.errors import InvalidInputError
+from roadtex.models.contact import contact_many
+from roadtex.profiles.profile import Profile
+from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
+from roadtex.spectra.levels import band_levels
+
+#: Tolerance of the reference solves (relative residual).
+REFERENCE_TOL = 1e-10
+
+#: Candidate solver tolerances, loosest first.
+DEFAULT_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10)
+
+#: Pilot segments per run (or per group of runs), spread evenly along it.
+DEFAULT_PILOT_SEGMENTS = 3
+
+#: Coarsest candidate sampling interval (m): the ISO 13473-1 MPD sampling.
+COARSEST_DX = 0.5e-3
+
+#: Safety factor on the pilot's extrapolation from its segments to the whole run. Level errors
+#: between segments are heavy-tailed (one segment may err 5 times more than the pilot's rms): on 8
+#: synthetic pavements x 10 settings x 6 bands (10 segments, 3 in the pilot) the pooled Gaussian
+#: extrapolation was exceeded by the true largest error in 29 % of the cases, by 1.5 times it in 11 %,
+#: by 2 times it in 4.6 % (95th percentile of the ratio 0.96, largest 2.5); see docs/error_budget.md.
+SPREAD_FACTOR = 2.0
+
+#: Ratio between neighbouring candidate point counts.
+LADDER_RATIO = 1.2
+
+KINDS = ("texture", "enveloped", "pressure")
+
+STUDY_SCHEMA = {
+    "dx": pl.Float64, "points": pl.Int64, "tol": pl.Float64, "reference": pl.Boolean, "band": pl.Int64,
+    "label": pl.String, "centre_wavelength": pl.Float64, "in_budget": pl.Boolean,
+    "seconds_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
+    "pressure_error_db": pl.Float64, "level_error_db": pl.Float64, "pilot_segments": pl.Int64,
+}
+
+
+@dataclass
+class Pilot:
+    """The reference side of a study: pilot segments, reference levels, the reference's own error."""
+
+    profiles: list[Profile]
+    moduli: np.ndarray
+    mean_pressure: float
+    poisson: float
+    segment_length: float
+    band_kind: BandKind
+    spike_alpha: float | None
+    max_iterations: int
+    threads: int | None
+    dx: float
+    points: int
+    bands: pl.DataFrame              # reported bands of the reference, with in_budget
+    pilot: list[tuple[int, float]]   # (profile index, segment start m) of each pilot segment
+    run_rows: int                    # rows (segments x moduli) of the whole run
+    texture: np.ndarray              # (all segments, bands) reference texture levels
+    starts: list[tuple[int, float]]  # (profile index, start) of every segment, rows of ``texture``
+    levels: np.ndarray               # (2, pilot rows, bands) enveloped, pressure at the reference
+    reference_error: np.ndarray      # (2, bands) reference's own error estimate
+    seconds_per_metre: float
+
+
+def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
+    profiles = [profile] if isinstance(profile, Profile) else list(profile)
+    if not profiles or not all(isinstance(p, Profile) for p in profiles):
+        raise InvalidInputError("profile must be a roadtex Profile or a non-empty sequence of Profiles "
+                                "(runs of the same device and pavement)")
+    dxs = {round(p.dx, 15) for p in profiles}
+    if len(dxs) != 1 and max(dxs) > 1.01 * min(dxs):
+        raise InvalidInputError("the profiles of a group must share their sampling interval (dx, m)")
+    return profiles
+
+
+def segments_of(profiles: list[Profile], dx: float | None, segment_length: float,
+                spike_alpha: float | None) -> tuple[np.ndarray, list[tuple[int, float]], float]:
+    """Every segment of every profile, conditioned at ``dx`` (None: the file's): heights, (profile, start), dx."""
+    heights, starts, used = [], [], 0.0
+    for index, profile in enumerate(profiles):
+        segments = profile.conditioned(dx=dx, spike_alpha=spike_alpha).segments(segment_length)
+        heights.append(segments.heights)
+        starts.extend((index, float(s)) for s in segments.starts)
+        used = segments.dx
+    lengths = {h.shape[1] for h in heights}
+    if len(lengths) != 1:
+        raise InvalidInputError("the profiles of a group give segments of different point counts")
+    return np.vstack(heights), starts, used
+
+
+def match(starts: list[tuple[int, float]], wanted: list[tuple[int, float]]) -> np.ndarray:
+    """Row of ``starts`` nearest each of ``wanted`` (same profile)."""
+    rows = []
+    for profile, start in wanted:
+        same = [(abs(s - start), i) for i, (p, s) in enumerate(starts) if p == profile]
+        rows.append(min(same)[1])
+    return np.asarray(rows, dtype=np.int64)
+
+
+def band_columns(levels_bands: pl.DataFrame, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns of ``bands`` in a level table, and whether each is reported there."""
+    numbers = levels_bands["band"].to_numpy()
+    reported = levels_bands["reported"].to_numpy()
+    columns = np.array([int(np.flatnonzero(numbers == b)[0]) if b in numbers else 0 for b in bands])
+    ok = np.array([b in numbers and bool(reported[numbers == b][0]) for b in bands])
+    return columns, ok
+
+
+def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Enveloped and pressure levels (2, rows, bands) of ``heights`` at (dx, tol), reported flags, seconds."""
+    start = time.perf_counter()
+    batch = contact_many(heights, dx, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
+                         max_iterations=pilot.max_iterations, threads=pilot.threads, warm_start=True,
+                         raise_on_nonconvergence=False)
+    seconds = time.perf_counter() - start
+    rows = heights.shape[0] * pilot.moduli.size
+    envelope = band_levels(batch.envelope.reshape(rows, -1), dx, kind=pilot.band_kind, periodic=True)
+    pressure = band_levels(batch.pressure.reshape(rows, -1), dx, kind=pilot.band_kind, periodic=True,
+                           reference=REFERENCE_PRESSURE)
+    columns, ok = band_columns(envelope.bands, pilot.bands["band"].to_numpy())
+    levels = np.stack([envelope.levels[:, columns], pressure.levels[:, columns]])
+    return levels, ok, seconds
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| in dB, 0 where both are -inf (bands without power), inf where only one is."""
+    with np.errstate(invalid="ignore"):
+        d = np.abs(a - b)
+    return np.where(np.isneginf(a) & np.isneginf(b), 0.0, np.where(np.isnan(d), np.inf, d))
+
+
+def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
+                mean_pressure: float, poisson: float, segment_length: float, n_segments: int,
+                band_kind: str, spike_alpha: float | None, max_iterations: int,
+                threads: int | None, include_reference_error: bool = True) -> Pilot:
+    profiles = as_profiles(profile)
+    moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64))
+    if moduli.size == 0 or not np.all(np.isfinite(moduli) & (moduli > 0)):
+        raise InvalidInputError(f"youngs_modulus must be positive moduli (Pa), got {youngs_moduli!r}")
+    count = whole_number(n_segments, "n_segments", 1)
+    kind = check_band_kind(band_kind)
+    length = positive(segment_length, "segment_length", "m")
+    heights, starts, dx = segments_of(profiles, None, length, spike_alpha)
+    texture = band_levels(heights, dx, kind=kind, periodic=True)
+    bands = texture.bands.filter(pl.col("reported"))
+    if bands.is_empty():
+        raise InvalidInputError(f"no band is reported for segments of {length:g} m sampled every {dx:.3g} m")
+    bands = bands.with_columns(pl.Series("in_budget", in_budget(bands["band"].to_numpy(), dx, length, kind)))
+    columns, _ = band_columns(texture.bands, bands["band"].to_numpy())
+    chosen = np.unique(np.round(np.linspace(0, len(starts) - 1, min(count, len(starts)))).astype(np.int64))
+    pilot = Pilot(profiles, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
+                  length, kind, spike_alpha, whole_number(max_iterations, "max_iterations", 1), threads, dx,
+                  heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
+                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0)
+    pilot.levels, _, seconds = solve_levels(pilot, heights[chosen], dx, REFERENCE_TOL)
+    pilot.seconds_per_metre = seconds / (chosen.size * length)
+    if not include_reference_error:
+        pilot.reference_error = np.zeros(pilot.levels[:, 0].shape)
+        return pilot
+    halved, _, _ = solve_levels(pilot, np.repeat(heights[chosen], 2, axis=1), dx / 2, REFERENCE_TOL)
+    # Richardson, first order: L(dx) - L(0) ~ 2 (L(dx) - L(dx / 2)); spread to the run's rows as below.
+    # On CAPTIF the differences fall about 3 times per halving (order ~1.5), so order 1 is on the safe side.
+    pilot.reference_error = 2.0 * extreme(np.moveaxis(difference(halved, pilot.levels), 1, 0), pilot.run_rows)
+    return pilot
+
+
+def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
+    """Estimate of the largest of ``run_rows`` differences per band from a sample (rows, ..., bands).
+
+    Per band, the sample is pooled with its two neighbouring bands (errors vary smoothly with the
+    wavelength, single bands of a few rows do not), then the larger of its largest value and the
+    Gaussian expectation of the largest of ``run_rows``: rms x sqrt(2 ln run_rows).
+    """
+    padded = np.concatenate([differences[..., :1], differences, differences[..., -1:]], axis=-1)
+    pooled = np.concatenate([padded[..., :-2], padded[..., 1:-1], padded[..., 2:]], axis=0)
+    with warnings.catch_warnings():  # NaN marks bands not reported at a candidate: skipped
+        warnings.simplefilter("ignore", RuntimeWarning)
+        rms = np.sqrt(np.nanmean(pooled ** 2, axis=0))
+        return np.fmax(np.nanmax(pooled, axis=0), rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
+
+
+def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Texture level error per band over every segment at ``dx`` (resampling only), reported flags, points."""
+    heights, starts, used = segments_of(pilot.profiles, dx, pilot.segment_length, pilot.spike_alpha)
+    levels = band_levels(heights, used, kind=pilot.band_kind, periodic=True)
+    columns, ok = band_columns(levels.bands, pilot.bands["band"].to_numpy())
+    rows = match(starts, pilot.starts)
+    error = difference(levels.levels[rows][:, columns], pilot.texture).max(axis=0)
+    return np.where(ok, error, np.inf), heights[match(starts, pilot.pilot)], heights.shape[1]
+
+
+def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]:
+    """One study row per (tol, band) at ``dx`` (the reference's own rows when dx is the reference's)."""
+    is_reference_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
+    if is_reference_dx:
+        texture = np.zeros(pilot.bands.height)
+        heights, _, _ = segments_of(pilot.profiles, None, pilot.segment_length, pilot.spike_alpha)
+        heights = heights[match(pilot.starts, pilot.pilot)]
+        used, points = pilot.dx, pilot.points
+    else:
+        texture, heights, points = texture_errors(pilot, dx)
+        used = pilot.segment_length / points
+    rows = []
+    for tol in tols:
+        if is_reference_dx and tol == REFERENCE_TOL:
+            solved, seconds_per_metre, ok = pilot.levels, pilot.seconds_per_metre, np.ones(pilot.bands.height, bool)
+        else:
+            solved, ok, seconds = solve_levels(pilot, heights, used, tol)
+            seconds_per_metre = seconds / (heights.shape[0] * pilot.segment_length)
+        measured = np.where(ok, difference(solved, pilot.levels), np.nan)  # NaN: not reported at dx
+        errors = SPREAD_FACTOR * extreme(np.moveaxis(measured, 1, 0), pilot.run_rows) + pilot.reference_error
+        errors = np.where(ok, errors, np.inf)
+        for j, band in enumerate(pilot.bands.iter_rows(named=True)):
+            row = {
+                "dx": used, "points": points, "tol": float(tol),
+                "reference": bool(is_reference_dx and tol == REFERENCE_TOL), "band": band["band"],
+                "label": band["label"], "centre_wavelength": band["centre_wavelength"],
+                "in_budget": band["in_budget"], "seconds_per_metre": seconds_per_metre,
+                "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
+                "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
+            }
+            row["level_error_db"] = max(row["texture_error_db"], row["enveloped_error_db"], row["pressure_error_db"])
+            rows.append(row)
+    return rows
+
+
+def default_dx_ladder(pilot: Pilot) -> list[float]:
+    """The file's dx, then segment_length / N for 5-smooth N, coarsening by about LADDER_RATIO down to
+    COARSEST_DX (or while the shortest budget band stays reported)."""
+    budget = pilot.bands.filter(pl.col("in_budget"))
+    shortest = float(budget["centre_wavelength"].min()) if budget.height else pilot.dx * 2.5
+    coarsest = min(COARSEST_DX, shortest / 2.5)
+    lowest = max(8, int(np.ceil(pilot.segment_length / coarsest)))
+    ladder = [n for n in five_smooth_ladder(pilot.points, lowest, ratio=LADDER_RATIO) if n < pilot.points]
+    return [pilot.dx] + [pilot.segment_length / n for n in ladder]
+
+
+def check_candidates(values: Sequence[float] | None, name: str) -> list[float] | None:
+    if values is None:
+        return None
+    out = [positive(v, name, "m" if name == "dx_candidates" else "relative residual") for v in values]
+    if not out:
+        raise InvalidInputError(f"{name} must hold at least one value")
+    return out
+
+
+def as_frame(rows: list[dict]) -> pl.DataFrame:
+    return pl.DataFrame(rows, schema=STUDY_SCHEMA).sort("dx", "tol", "band")
+
+
+def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: float | Sequence[float],
+                      mean_pressure: float, poisson: float = 0.5, segment_length: float = 0.5,
+                      dx_candidates: Sequence[float] | None = None, tol_candidates: Sequence[float] | None = None,
+                      n_segments: int = DEFAULT_PILOT_SEGMENTS, band_kind: str = "third_octave",
+                      spike_alpha: float | None = None, max_iterations: int = 2000,
+                      threads: int | None = None, include_reference_error: bool = True) -> pl.DataFrame:
+    """The pilot's table: the estimated level error and the cost of every (dx, tol) candidate.
+
+    Args:
+        profile: a run as read (:func:`roadtex.read_profile`), or a sequence of runs of the same
+            device and pavement (one study for the group).
+        youngs_modulus: rubber modulus E (Pa), or several (errors are the worst over them).
+        mean_pressure: P (Pa).
+        poisson: nu of the rubber.
+        segment_length: length of the job's segments (m).
+        dx_candidates: sampling intervals to try (m); None: the file's, then segment_length / N for
+            5-smooth N (FFT-friendly), about 1.2 times coarser each, down to 0.5 mm.
+        tol_candidates: solver tolerances to try; None: 1e-4, 1e-6, 1e-8, 1e-10.
+        n_segments: pilot segments, spread evenly along the run(s).
+        band_kind: "third_octave" or "octave".
+        spike_alpha: the job's spike criterion for conditioning (None: none).
+        max_iterations, threads: passed to :func:`roadtex.contact_many`.
+        include_reference_error: True (default): errors against the converged answer, the
+            reference's own error included (an extra solve at dx / 2); False: errors against the
+            full-resolution result (file dx, tol 1e-10), whose own error is then left out.
+
+    Returns:
+        A polars table, one row per (dx, tol, band) for the bands reported at the file's dx:
+        ``dx`` (m), ``points`` (per segment), ``tol``, ``reference`` (the file's dx at tol 1e-10),
+        ``band``, ``label``, ``centre_wavelength`` (m), ``in_budget`` (a tyre/road noise band, see
+        :mod:`roadtex.budget.noise`), ``seconds_per_metre`` (wall time of the solves, every
+        modulus, per metre of road), ``texture_error_db``, ``enveloped_error_db``,
+        ``pressure_error_db`` (upper estimates of each level's numerical error, dB, worst over
+        segments and moduli; inf where the band is not reported at that dx), ``level_error_db``
+        (the largest of the three) and ``pilot_segments``.
+
+    Raises:
+        InvalidInputError: bad arguments, a run too short for one segment, no reported band.
+    """
+    pilot = build_pilot(profile, youngs_moduli=youngs_modulus, mean_pressure=mean_pressure, poisson=poisson,
+                        segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
+                        spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
+                        include_reference_error=include_reference_error)
+    dxs = check_candidates(dx_candidates, "dx_candidates") or default_dx_ladder(pilot)
+    tols = check_candidates(tol_candidates, "tol_candidates") or list(DEFAULT_TOLERANCES)
+    rows: list[dict] = []
+    for dx in dxs:
+        rows.extend(candidate_rows(pilot, dx, tols))
+    return as_frame(rows)
