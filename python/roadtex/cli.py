@@ -58,6 +58,7 @@ def process_command(args: argparse.Namespace) -> int:
             poisson=args.poisson, segment_length=args.segment_length, segment_overlap=args.overlap,
             dx=args.dx, spike_alpha=None if args.spike_alpha <= 0 else args.spike_alpha,
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
+            error_budget_db=error_budget(args.error_budget),
             band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
             reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
         with warnings.catch_warnings():
@@ -76,6 +77,16 @@ def process_command(args: argparse.Namespace) -> int:
         print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
               f"{summary.tables.get('errors')}", file=sys.stderr)
     return 1 if summary.failed_on_record else 0
+
+
+def error_budget(text: str) -> float | None:
+    """--error-budget: a number of dB, or 'off'."""
+    if text.strip().lower() in ("off", "none", "no"):
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"--error-budget must be a number of dB or 'off', got {text!r}") from None
 
 
 def manifest_command(args: argparse.Namespace) -> int:
@@ -118,7 +129,12 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                              "within 0.5 mm is a spike (default 3, ISO 13473-1's alpha; 0 turns it off)")
     parser.add_argument("--mpd-spike-alpha", type=float, default=defaults.mpd_spike_alpha,
                         help="spike criterion alpha of the ISO 13473-1 MPD (default 3; 0 turns it off)")
-    parser.add_argument("--tol", type=float, default=defaults.tol, help="solver tolerance (default 1e-6)")
+    parser.add_argument("--error-budget", default=f"{defaults.error_budget_db:g}", metavar="DB",
+                        help=f"largest numerical error in dB allowed on any level in the tyre/road noise bands; a pilot "
+                             f"picks the cheapest sampling and tolerance within it (default {defaults.error_budget_db:g}; "
+                             "'off' switches it off)")
+    parser.add_argument("--tol", type=float, default=None,
+                        help="solver tolerance (default: chosen by the error budget; 1e-6 with --error-budget off)")
     parser.add_argument("--bands", choices=["third_octave", "octave"], default=defaults.band_kind,
                         help="band kind of the spectra (default third_octave)")
     parser.add_argument("--band-method", choices=["dft", "filter"], default=defaults.band_method,

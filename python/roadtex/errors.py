@@ -80,6 +80,11 @@ class ImplausibleParameterWarning(RoadtexWarning):
     (usually a unit mistake: MPa given as Pa, mm as m)."""
 
 
+class ErrorBudgetWarning(RoadtexWarning):
+    """The error budget cannot be met at the data's sampling: the job runs near the smallest
+    reachable error and states it per band."""
+
+
 class ConditioningWarning(RoadtexWarning):
     """Conditioning removed more of a profile than a sound measurement would need (trimmed length,
     spikes, drop-outs beyond the documented thresholds)."""
@@ -89,4 +94,5 @@ __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
+    "ErrorBudgetWarning",
 ]

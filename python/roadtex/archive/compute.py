@@ -9,7 +9,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import reader_options
+from roadtex.archive.plan import JobPlan, reader_options
 from roadtex.archive.schemas import BAND_SCHEMA, EXAMPLE_SCHEMA, METADATA_COLUMNS, PROFILE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
@@ -42,18 +42,21 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
         raise RunFailure(stage, exc) from exc
 
 
-def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
+def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None,
+                plan: JobPlan | None = None) -> dict[str, pl.DataFrame]:
     """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
 
-    ``options.dx`` must be set (the job's plan fills it in: :meth:`JobPlan.resolved`).
+    ``options.dx`` and ``options.tol`` must be set (the job's plan fills them in:
+    :meth:`JobPlan.resolved`); ``plan`` adds its error estimates to the tables.
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
             too short for one 100 mm MPD baseline or one segment fails as a whole, and so does a
             file whose heights cannot be a road texture in the unit read (a unit mistake).
     """
-    if options.dx is None:
-        raise InvalidInputError("compute_run needs options.dx (the job's plan sets it)")
+    if options.dx is None or options.tol is None:
+        raise InvalidInputError("compute_run needs options.dx and options.tol (the job's plan sets them)")
+    plan = plan or JobPlan(dx=options.dx, tol=options.tol, source="given")
     name = Path(run["path"]).name
     raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reader_options(run, options)))
     reason = implausible_texture(raw.heights, raw.dx, name)
@@ -81,7 +84,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # The contact model sees each segment as one period, so the original segments are analysed
     # the same way as its (periodic) output: exact DFT band powers, no window. Differences
     # enveloped - original then come from the envelopment alone, not from a change of method.
-    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True, method=options.band_method))
+    method = options.band_method
+    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True, method=method))
     if not texture.bands["reported"].any():
         raise RunFailure("spectra", InvalidInputError(
             f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
@@ -89,6 +93,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # Every candidate band is kept, with its reported flag and the reason when it is not reported.
     bands = texture.bands
     band_count = bands.height
+    # the plan's estimate per band (null where it has none: no budget, or a band it could not judge)
+    errors = [plan.band_error_db.get(int(b)) for b in bands["band"].to_list()]
+    level_error = np.array([np.nan if e is None or not np.isfinite(e) else e for e in errors], dtype=np.float64)
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(band_count, np.nan))
 
@@ -105,9 +112,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         count = heights.shape[0]
         envelopes = batch.envelope.reshape(count * n_moduli, n_points)
         pressures = batch.pressure.reshape(count * n_moduli, n_points)
-        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True, method=options.band_method))
+        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True, method=method))
         pressure = run_stage("spectra", lambda: band_levels(
-            pressures, dx, kind=options.band_kind, periodic=True, method=options.band_method, reference=REFERENCE_PRESSURE))
+            pressures, dx, kind=options.band_kind, periodic=True, method=method, reference=REFERENCE_PRESSURE))
         if options.keep_profiles:
             profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
             profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)
@@ -148,6 +155,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "texture_level": texture.levels[seg_index].ravel(),
             "enveloped_level": enveloped.levels.ravel(),
             "pressure_level": pressure.levels.ravel(),
+            "level_error_db": np.tile(level_error, rows),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id")).select(
             [pl.col(name).cast(dtype) for name, dtype in BAND_SCHEMA.items()]))
 
@@ -158,9 +166,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         # undefined numbers: null in the tables, never a number that sorts or averages.
         "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA).with_columns(pl.col("mpd").fill_nan(None)),
         "bands": pl.concat(band_frames).with_columns(
-            pl.col("frequency").fill_nan(None),
+            pl.col("frequency").fill_nan(None), pl.col("level_error_db").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, plan),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
@@ -174,12 +182,15 @@ def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[P
 
 
 def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
-              n_segments: int) -> pl.DataFrame:
-    """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity."""
+              n_segments: int, plan: JobPlan) -> pl.DataFrame:
+    """The run's row of runs.parquet: what was read, removed and solved, its MPD with validity, and
+    the plan's setting with its estimated error and the time it saves against the finest setting."""
     mpd_value = depth.mpd if np.isfinite(depth.mpd) else None
+    chosen, finest = plan.seconds_per_metre, plan.finest_seconds_per_metre
+    timed = chosen is not None and finest is not None and chosen > 0
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx": [conditioned.dx], "points": [conditioned.heights.size],
+        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [plan.tol], "points": [conditioned.heights.size],
         "raw_length": [cleaning.raw_length], "trimmed_length": [cleaning.trimmed_length],
         "length": [conditioned.length], "plates": [cleaning.plates],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
@@ -187,6 +198,9 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
+        "worst_level_error_db": [plan.worst_error_db], "within_budget": [plan.within_budget],
+        "speedup": [finest / chosen if timed else None],
+        "time_saved": [(finest - chosen) * conditioned.length if timed else None],
     }, schema=RUN_SCHEMA)
 
 

@@ -26,7 +26,7 @@ LOCAL_RUNS_IN_FLIGHT = 2
 
 
 def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
-                   threads: int | None, flags: dict[str, bool]) -> Iterable[tuple[dict[str, Any], int]]:
+                   threads: int | None, flags: dict[str, Any]) -> Iterable[tuple[dict[str, Any], int]]:
     """Runs in manifest order, a bounded number at a time; yields (status, size) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
@@ -49,7 +49,7 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
 
 def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
                   scheduler: str | None, workers: int, threads: int | None,
-                  flags: dict[str, bool]) -> Iterable[tuple[dict[str, Any], int]]:
+                  flags: dict[str, Any]) -> Iterable[tuple[dict[str, Any], int]]:
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import platform
 import time
@@ -24,6 +25,7 @@ from roadtex.archive.schemas import (
     EDGE_EFFECT_SCHEMA,
     ERROR_SCHEMA,
     EXAMPLE_SCHEMA,
+    PILOT_SCHEMA,
     RUN_SCHEMA,
     SEGMENT_SCHEMA,
     TABLES,
@@ -49,7 +51,7 @@ Engine = Literal["local", "dask"]
 PER_RUN_TABLES = {"segments": "segments", "bands": "bands", "run": "runs", "example": "examples", "profiles": "profiles"}
 #: Units of ProcessingOptions' fields, recorded in parameters.json.
 OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
-                "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1"}
+                "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1", "error_budget_db": "dB"}
 
 
 @dataclass(frozen=True)
@@ -79,7 +81,8 @@ class ProcessSummary:
 
 
 def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | os.PathLike[str], *,
-                threads: int | None = None, force: bool = False, retry_failed: bool = False) -> dict[str, Any]:
+                threads: int | None = None, force: bool = False, retry_failed: bool = False,
+                plan: JobPlan | None = None) -> dict[str, Any]:
     """Processes one manifest row and writes its outputs atomically to ``out_dir/runs/<run_id>/``.
 
     ``options`` are the resolved ones (``dx`` set, see :class:`~roadtex.archive.plan.JobPlan`).
@@ -99,7 +102,9 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         input_sha256 = file_sha256(run["path"])
     except OSError as exc:
         input_sha256 = f"unreadable: {exc}"
-    fingerprint = run_fingerprint(options_fingerprint, input_sha256, run)
+    # the plan's error estimates are in the run's tables: a new estimate means new tables
+    plan_key = json.dumps(plan.summary() if plan is not None else None, sort_keys=True, default=str)
+    fingerprint = run_fingerprint(options_fingerprint + plan_key, input_sha256, run)
     previous = read_status(run_dir)
     if (not force and previous is not None and previous.get("fingerprint") == fingerprint
             and not (retry_failed and previous.get("state") == "error")):
@@ -113,7 +118,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
     try:
-        tables = compute_run(run, options, threads=threads)
+        tables = compute_run(run, options, threads=threads, plan=plan)
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)
@@ -174,11 +179,11 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
-    plan = plan_job(runs, options)
+    plan, study = plan_job(runs, options, threads=threads)
     resolved = plan.resolved(options)
     progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
-    flags = {"force": force, "retry_failed": retry_failed}
+    flags = {"force": force, "retry_failed": retry_failed, "plan": plan}
     try:
         if engine == "local":
             finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
@@ -189,7 +194,7 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
             progress.update(status, size)
     finally:
         progress.close()
-    tables = combine(table, out, resolved, plan=plan, requested=options)
+    tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
     counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
               for state in ("ok", "error")}
     return ProcessSummary(
@@ -201,7 +206,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
 
 
 def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions, *,
-            plan: JobPlan | None = None, requested: ProcessingOptions | None = None) -> dict[str, Path]:
+            plan: JobPlan | None = None, requested: ProcessingOptions | None = None,
+            study: pl.DataFrame | None = None) -> dict[str, Path]:
     """Concatenates the per-run tables of the runs in ``manifest`` (in its order) into the combined tables.
 
     ``options`` are the resolved options the runs were solved with; ``requested`` and ``plan``
@@ -243,13 +249,18 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     edge = edge_effect_table(options)
     write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p, metadata=parquet_metadata(TABLES["edge_effect"])))
     written["edge_effect"] = out / "edge_effect.parquet"
+    pilot = (study.select([pl.col(c).cast(t) if c in study.columns else pl.lit(None, dtype=t).alias(c)
+                           for c, t in PILOT_SCHEMA.items()])
+             if study is not None and study.height else pl.DataFrame(schema=PILOT_SCHEMA))
+    write_atomically(out / "pilot.parquet", lambda p: pilot.write_parquet(p, metadata=parquet_metadata(TABLES["pilot"])))
+    written["pilot"] = out / "pilot.parquet"
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
     write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, metadata=parquet_metadata(TABLES["errors"])))
     written["errors"] = out / "errors.parquet"
     write_json(out / "parameters.json", {
         "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
         "requested_options": dataclasses.asdict(requested or options),
-        "plan": dataclasses.asdict(plan) if plan is not None else None,
+        "plan": plan.summary() if plan is not None else None,
         "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
         "versions": software_versions(), "runs": manifest.height,
     })

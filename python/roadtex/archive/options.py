@@ -12,10 +12,13 @@ import numpy as np
 
 from roadtex._checks import finite_number, poisson_ratio, positive, positive_int
 from roadtex._core import __version__
+from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
 from roadtex.errors import ImplausibleParameterWarning, InvalidInputError
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.spectra.bands import check_band_kind
 
+#: Solver tolerance without an error budget (relative residual).
+DEFAULT_TOL = 1e-6
 #: Plausible rubber Young's moduli (Pa): tyre tread compounds are 1 to 10 MPa; this leaves a
 #: decade either side. Outside it, a modulus is taken for a unit mistake (MPa given as Pa, ...).
 PLAUSIBLE_MODULUS = (1e5, 1e8)
@@ -60,8 +63,13 @@ class ProcessingOptions:
         mpd_spike_alpha: spike criterion of the mean profile depth, computed after ISO 13473-1 on
             the profile resampled to 0.5 mm (3 in the standard; the CAPTIF authors use 6 on
             coarse chip seals; None skips).
-        tol: solver tolerance (relative residual, see :func:`roadtex.contact`). 1e-6 of a few
-            millimetres of texture is a few nanometres, far below what the spectra resolve.
+        error_budget_db: the largest numerical error (dB) allowed on any reported level in the
+            tyre/road noise bands (see :mod:`roadtex.budget`); a pilot per group of runs picks the
+            cheapest ``dx`` and ``tol`` within it (see :mod:`roadtex.archive.plan`), and every band
+            row states its estimated error. None switches it off. Default 0.2 dB.
+        tol: solver tolerance (relative residual, see :func:`roadtex.contact`). None (the
+            default): chosen by the error budget, or :data:`DEFAULT_TOL` without one. 1e-6 of a
+            few millimetres of texture is a few nanometres.
             Each segment's moduli are solved in the order given, each from the previous one's
             solution (``contact_many(warm_start=True)``): every result meets ``tol``.
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
@@ -84,7 +92,8 @@ class ProcessingOptions:
     dx: float | None = None
     spike_alpha: float | None = 3.0
     mpd_spike_alpha: float | None = 3.0
-    tol: float = 1e-6
+    error_budget_db: float | None = DEFAULT_ERROR_BUDGET_DB
+    tol: float | None = None
     max_iterations: int = 2000
     band_kind: str = "third_octave"
     band_method: str = "dft"
@@ -99,7 +108,10 @@ class ProcessingOptions:
         object.__setattr__(self, "youngs_moduli", moduli)
         object.__setattr__(self, "mean_pressure", positive(self.mean_pressure, "mean_pressure", "Pa"))
         object.__setattr__(self, "segment_length", positive(self.segment_length, "segment_length", "m"))
-        object.__setattr__(self, "tol", positive(self.tol, "tol", "relative residual"))
+        if self.tol is not None:
+            object.__setattr__(self, "tol", positive(self.tol, "tol", "relative residual"))
+        if self.error_budget_db is not None:
+            object.__setattr__(self, "error_budget_db", positive(self.error_budget_db, "error_budget_db", "dB"))
         object.__setattr__(self, "poisson", poisson_ratio(self.poisson))
         object.__setattr__(self, "max_iterations", positive_int(self.max_iterations, "max_iterations"))
         if self.dx is not None:

@@ -1,54 +1,81 @@
-"""The job's plan: one sampling interval (and solver tolerance) for every run, chosen before any run
-is processed.
+"""The job's plan: one sampling interval and one solver tolerance for every run, chosen before any
+run is processed, with the numerical error of every band level they give.
 
-Results of the contact model depend on the sampling interval (the rubber bridges what it cannot
-resolve), so two devices measuring the same road at 0.04 and 0.5 mm would give different contact
-fractions if each run kept its own. The job therefore solves every run at one interval: the one
-given (``ProcessingOptions.dx``), or else the finest nominal interval among a sample of the runs
-(every run of a small archive; :data:`PLAN_SAMPLE_RUNS` spread over a large one). Runs sampled
-more coarsely than that are interpolated to it; runs sampled more finely are averaged down.
+- **One sampling interval for all runs.** Results of the contact model depend on the sampling
+  interval (the rubber bridges what it cannot resolve), so two devices measuring the same road at
+  0.04 and 0.5 mm would give different contact fractions if each run kept its own. Every run is
+  solved at one interval; runs sampled more coarsely are interpolated to it, runs sampled more
+  finely averaged down.
+- **The error budget** (``ProcessingOptions.error_budget_db``, on by default): a pilot
+  (:func:`roadtex.budget.choose_setting`) per group of runs of the same device and pavement, on a
+  few segments of up to :data:`PILOT_RUNS_PER_GROUP` runs spread over the group, measures how the
+  levels converge with the interval and the tolerance and picks the cheapest setting within the
+  budget. The job takes the finest interval and the tightest tolerance any group needs, so every
+  group stays within the budget, and states per band the largest error estimate of any group.
+- **Without a budget**: the given ``dx`` (or the finest nominal interval among a sample of the
+  runs) and the given ``tol`` (or :data:`DEFAULT_TOL`), and no error estimate.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import polars as pl
 
-from roadtex.archive.options import ProcessingOptions
-from roadtex.errors import RoadtexWarning
+from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
+from roadtex.budget import choose_setting
+from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
+from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
 
-#: Runs read to plan a large archive (spread evenly over the manifest).
+#: Runs read per (device, pavement) group for the pilot (spread evenly over the group).
+PILOT_RUNS_PER_GROUP = 3
+#: Runs read to find the finest interval when there is no budget (spread over the manifest).
 PLAN_SAMPLE_RUNS = 8
 
 
 @dataclass(frozen=True)
 class JobPlan:
-    """What the job solves every run at.
+    """What the job solves every run at, and the numerical error that gives.
 
     Attributes:
         dx: sampling interval (m).
         tol: solver tolerance (relative residual).
-        source: how ``dx`` was chosen ("given", or "finest of N sampled runs").
-        sampled_runs: run ids read to choose it.
-        band_error_db: per band number, an upper estimate of the numerical error of the band
-            levels (dB); empty when not estimated.
+        source: how they were chosen.
+        budget_db: the error budget (dB), None when off.
+        within_budget: whether every group's estimate is within the budget (None without budget).
+        worst_error_db: largest estimated error (dB) in the budget bands, any group (None without budget).
+        band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
+            that band (texture, enveloped, pressure; any segment, modulus and group).
+        seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
+        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        pilot_seconds: wall time of the pilots (s).
+        groups: (device, pavement) groups and the runs each pilot read.
     """
 
     dx: float
     tol: float
     source: str
-    sampled_runs: tuple[str, ...] = ()
+    budget_db: float | None = None
+    within_budget: bool | None = None
+    worst_error_db: float | None = None
     band_error_db: dict[int, float] = field(default_factory=dict)
+    seconds_per_metre: float | None = None
+    finest_seconds_per_metre: float | None = None
+    pilot_seconds: float = 0.0
+    groups: dict[str, list[str]] = field(default_factory=dict)
 
     def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
         """``options`` with the plan's interval and tolerance filled in (what the runs are solved with)."""
-        import dataclasses
-
         return dataclasses.replace(options, dx=self.dx, tol=self.tol)
+
+    def summary(self) -> dict[str, Any]:
+        """The plan as JSON-ready values (parameters.json)."""
+        return {**dataclasses.asdict(self), "band_error_db": {str(k): v for k, v in self.band_error_db.items()}}
 
 
 def reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str, object]:
@@ -65,7 +92,7 @@ def reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str,
     return chosen
 
 
-def sample_runs(runs: list[dict[str, Any]], count: int = PLAN_SAMPLE_RUNS) -> list[dict[str, Any]]:
+def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
     """Up to ``count`` runs spread evenly over ``runs`` (all of them when there are few)."""
     if len(runs) <= count:
         return list(runs)
@@ -73,25 +100,85 @@ def sample_runs(runs: list[dict[str, Any]], count: int = PLAN_SAMPLE_RUNS) -> li
     return [runs[i] for i in picks]
 
 
-def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:
-    """Chooses the job's sampling interval and tolerance (see the module docstring).
-
-    A sampled run that cannot be read is skipped here (its own processing records why); if none can
-    be read, the plan falls back to 0.5 mm, ISO 13473-1's grid.
-    """
-    if options.dx is not None:
-        return JobPlan(dx=options.dx, tol=options.tol, source="given")
-    intervals, names = [], []
-    for run in sample_runs(runs):
+def readable(runs: list[dict[str, Any]], options: ProcessingOptions) -> list[tuple[dict[str, Any], Profile]]:
+    """The runs that can be read, with their profiles; a run that cannot is skipped here (its own
+    processing records why)."""
+    read = []
+    for run in runs:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RoadtexWarning)
-                profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
+                read.append((run, read_profile(run["path"], format=run.get("format"), **reader_options(run, options))))
         except Exception:  # noqa: BLE001 - the run's own processing records the failure
             continue
-        intervals.append(profile.dx)
-        names.append(run["run_id"])
-    if not intervals:
-        return JobPlan(dx=0.5e-3, tol=options.tol, source="ISO 13473-1 grid (no sampled run could be read)")
-    return JobPlan(dx=float(min(intervals)), tol=options.tol,
-                   source=f"finest of {len(names)} sampled runs", sampled_runs=tuple(names))
+    return read
+
+
+def group_key(run: dict[str, Any]) -> str:
+    return f"{run.get('device') or 'any device'} / {run.get('pavement') or 'any pavement'}"
+
+
+def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads: int | None = None) -> tuple[JobPlan, pl.DataFrame]:
+    """Chooses the job's sampling interval and tolerance (see the module docstring).
+
+    Returns:
+        The plan, and the pilots' study rows (one per group, setting and band; empty without a
+        budget) for pilot.parquet and the report's speed-against-error figure.
+    """
+    if options.error_budget_db is None:
+        return plan_without_budget(runs, options), pl.DataFrame()
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for run in runs:
+        groups.setdefault(group_key(run), []).append(run)
+    choices, studies, read_runs = [], [], {}
+    for key, members in groups.items():
+        read = readable(spread(members, PILOT_RUNS_PER_GROUP), options)
+        if not read:
+            continue
+        try:
+            choice = choose_setting(
+                [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
+                mean_pressure=options.mean_pressure, segment_length=options.segment_length,
+                budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
+                poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
+                max_iterations=options.max_iterations, threads=threads)
+        except Exception:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
+            continue
+        choices.append(choice)
+        read_runs[key] = [run["run_id"] for run, _ in read]
+        studies.append(choice.study.with_columns(pl.lit(key).alias("group"),
+                                                 ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
+    if not choices:
+        fallback = plan_without_budget(runs, options)
+        return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
+                                                                      "and cut into segments)"), pl.DataFrame()
+    dx = min(c.dx for c in choices)
+    tol = min(c.tol for c in choices)
+    bands = sorted({b for c in choices for b in c.band_error_db})
+    band_error = {b: max(c.band_error_db.get(b, 0.0) for c in choices) for b in bands}
+    within = all(c.within_budget for c in choices)
+    worst = max(c.worst_error_db for c in choices)
+    if not within:
+        warnings.warn(
+            f"the error budget of {options.error_budget_db:g} dB cannot be met at the data's sampling: the smallest "
+            f"estimated error in the tyre/road noise bands is {worst:.3g} dB; the job runs at the cheapest setting "
+            "near that floor and states the error of every band (bands.parquet level_error_db)",
+            ErrorBudgetWarning, stacklevel=3)
+    plan = JobPlan(
+        dx=float(dx), tol=float(tol), source=f"error budget pilots of {len(choices)} group(s)",
+        budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
+        seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
+        finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)),
+        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs)
+    return plan, pl.concat(studies, how="diagonal_relaxed")
+
+
+def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:
+    tol = DEFAULT_TOL if options.tol is None else options.tol
+    if options.dx is not None:
+        return JobPlan(dx=options.dx, tol=tol, source="given")
+    read = readable(spread(runs, PLAN_SAMPLE_RUNS), options)
+    if not read:
+        return JobPlan(dx=0.5e-3, tol=tol, source="ISO 13473-1 grid (no sampled run could be read)")
+    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol,
+                   source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]})

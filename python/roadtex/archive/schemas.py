@@ -77,13 +77,15 @@ BAND_COLUMNS: Columns = {
     "texture_level": (pl.Float64(), "dB re 1 um"),     # original profile segment
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
+    "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
     "path": (pl.String(), None),
     "format": (pl.String(), None),                # as given in the manifest (null: guessed from the file)
     "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
-    "dx": (pl.Float64(), "m"),                    # the sampling interval the run was solved at (the job's)
+    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's)
+    "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's)
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
     "trimmed_length": (pl.Float64(), "m"),        # cut away as reference plates (and beyond them)
@@ -98,6 +100,28 @@ RUN_COLUMNS: Columns = {
     "mpd_valid": (pl.Boolean(), None),            # ISO validity: at least half the baselines valid
     "mpd_valid_baselines": (pl.Int64(), "count"),
     "mpd_baselines": (pl.Int64(), "count"),
+    "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
+    "within_budget": (pl.Boolean(), None),        # null without budget
+    "speedup": (pl.Float64(), "1"),               # finest setting's solve time / this one's (the pilot's)
+    "time_saved": (pl.Float64(), "s"),            # solve time saved on this run against the finest setting
+}
+PILOT_COLUMNS: Columns = {
+    "group": (pl.String(), None),                 # device / pavement group of runs sharing one pilot
+    "dx": (pl.Float64(), "m"),
+    "points": (pl.Int64(), "count"),              # per segment
+    "tol": (pl.Float64(), "1"),
+    "reference": (pl.Boolean(), None),            # the finest setting the others are measured against
+    "chosen": (pl.Boolean(), None),               # the group's choice
+    "band": (pl.Int64(), "1"),
+    "label": (pl.String(), None),
+    "centre_wavelength": (pl.Float64(), "m"),
+    "in_budget": (pl.Boolean(), None),            # a tyre/road noise band the budget applies to
+    "seconds_per_metre": (pl.Float64(), "s/m"),   # solve time, every modulus, per metre of road
+    "texture_error_db": (pl.Float64(), "dB"),
+    "enveloped_error_db": (pl.Float64(), "dB"),
+    "pressure_error_db": (pl.Float64(), "dB"),
+    "level_error_db": (pl.Float64(), "dB"),
+    "pilot_segments": (pl.Int64(), "count"),
 }
 ERROR_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -157,8 +181,10 @@ ERROR_SCHEMA = schema(ERROR_COLUMNS)
 PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
 EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
 EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
+PILOT_SCHEMA = schema(PILOT_COLUMNS)
 #: Each table the job writes, by file stem, with its declaration.
 TABLES: dict[str, Columns] = {
     "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,
     "profiles": PROFILE_COLUMNS, "examples": EXAMPLE_COLUMNS, "edge_effect": EDGE_EFFECT_COLUMNS,
+    "pilot": PILOT_COLUMNS,
 }

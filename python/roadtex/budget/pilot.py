@@ -4,8 +4,8 @@
 then walks the candidate dx from the coarsest (cheapest) to the finest, each at the loosest tol and
 then at tighter ones only while the miss is smaller than what a tighter tol can gain (see
 :func:`tolerance_effect`), and stops at the first setting within the budget in every budget band.
-When none is, it keeps the setting with the smallest worst error, normally the finest
-(``within_budget`` False).
+When none is (``within_budget`` False: the data's sampling cannot meet the budget), it keeps the
+cheapest setting whose worst error is within 5 % (and 0.01 dB) of the smallest one evaluated.
 Forced settings (``forced_dx``, ``forced_tol``) restrict the search to them and are still estimated.
 """
 
@@ -180,10 +180,12 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         summary = {k: v for k, v in summary.items() if (forced_dx_f is None or k[0] == dxs_used(rows, forced_dx_f))
                    and (forced_tol_f is None or k[1] == forced_tol_f)}
     within = {k: v for k, v in summary.items() if v[0] <= budget}
-    if within:
-        key = min(within, key=lambda k: (within[k][1], -k[0]))
-    else:
-        key = min(summary, key=lambda k: (summary[k][0], summary[k][1]))
+    if not within:
+        # Out of reach (the data's own sampling cannot meet the budget): the cheapest setting whose
+        # error is within 5 % (and 0.01 dB) of the smallest one evaluated, not the dearest solve.
+        floor = min(v[0] for v in summary.values())
+        within = {k: v for k, v in summary.items() if v[0] <= 1.05 * floor + 0.01}
+    key = min(within, key=lambda k: (within[k][1], -k[0]))
     worst, seconds = summary[key]
     chosen = [r for r in rows if (r["dx"], r["tol"]) == key]
     return BudgetChoice(
