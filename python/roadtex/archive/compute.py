@@ -9,8 +9,15 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import JobPlan, reader_options
-from roadtex.archive.schemas import BAND_SCHEMA, EXAMPLE_SCHEMA, METADATA_COLUMNS, PROFILE_SCHEMA, RUN_SCHEMA, SEGMENT_SCHEMA
+from roadtex.archive.plan import reader_options
+from roadtex.archive.schemas import (
+    EXAMPLE_SCHEMA,
+    METADATA_COLUMNS,
+    PROFILE_SCHEMA,
+    RUN_BAND_SCHEMA,
+    RUN_RUN_SCHEMA,
+    SEGMENT_SCHEMA,
+)
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import ContactBatch
@@ -42,12 +49,12 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
         raise RunFailure(stage, exc) from exc
 
 
-def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None,
-                plan: JobPlan | None = None) -> dict[str, pl.DataFrame]:
+def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
     """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
 
     ``options.dx`` and ``options.tol`` must be set (the job's plan fills them in:
-    :meth:`JobPlan.resolved`); ``plan`` adds its error estimates to the tables.
+    :meth:`~roadtex.archive.plan.JobPlan.resolved`); the plan's error estimates are added when the
+    job combines the runs' tables (:func:`roadtex.archive.job.combine`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
@@ -56,7 +63,6 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     """
     if options.dx is None or options.tol is None:
         raise InvalidInputError("compute_run needs options.dx and options.tol (the job's plan sets them)")
-    plan = plan or JobPlan(dx=options.dx, tol=options.tol, source="given")
     name = Path(run["path"]).name
     raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reader_options(run, options)))
     reason = implausible_texture(raw.heights, raw.dx, name)
@@ -93,9 +99,6 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # Every candidate band is kept, with its reported flag and the reason when it is not reported.
     bands = texture.bands
     band_count = bands.height
-    # the plan's estimate per band (null where it has none: no budget, or a band it could not judge)
-    errors = [plan.band_error_db.get(int(b)) for b in bands["band"].to_list()]
-    level_error = np.array([np.nan if e is None or not np.isfinite(e) else e for e in errors], dtype=np.float64)
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(band_count, np.nan))
 
@@ -155,9 +158,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "texture_level": texture.levels[seg_index].ravel(),
             "enveloped_level": enveloped.levels.ravel(),
             "pressure_level": pressure.levels.ravel(),
-            "level_error_db": np.tile(level_error, rows),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id")).select(
-            [pl.col(name).cast(dtype) for name, dtype in BAND_SCHEMA.items()]))
+            [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
 
     level_columns = ["texture_level", "enveloped_level", "pressure_level"]
     tables = {
@@ -166,9 +168,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         # undefined numbers: null in the tables, never a number that sorts or averages.
         "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA).with_columns(pl.col("mpd").fill_nan(None)),
         "bands": pl.concat(band_frames).with_columns(
-            pl.col("frequency").fill_nan(None), pl.col("level_error_db").fill_nan(None),
+            pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, plan),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
@@ -182,15 +184,13 @@ def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[P
 
 
 def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
-              n_segments: int, plan: JobPlan) -> pl.DataFrame:
-    """The run's row of runs.parquet: what was read, removed and solved, its MPD with validity, and
-    the plan's setting with its estimated error and the time it saves against the finest setting."""
+              n_segments: int, tol: float) -> pl.DataFrame:
+    """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity
+    (the plan's columns are added when the job combines the runs)."""
     mpd_value = depth.mpd if np.isfinite(depth.mpd) else None
-    chosen, finest = plan.seconds_per_metre, plan.finest_seconds_per_metre
-    timed = chosen is not None and finest is not None and chosen > 0
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [plan.tol], "points": [conditioned.heights.size],
+        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [tol], "points": [conditioned.heights.size],
         "raw_length": [cleaning.raw_length], "trimmed_length": [cleaning.trimmed_length],
         "length": [conditioned.length], "plates": [cleaning.plates],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
@@ -198,10 +198,7 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
-        "worst_level_error_db": [plan.worst_error_db], "within_budget": [plan.within_budget],
-        "speedup": [finest / chosen if timed else None],
-        "time_saved": [(finest - chosen) * conditioned.length if timed else None],
-    }, schema=RUN_SCHEMA)
+    }, schema=RUN_RUN_SCHEMA)
 
 
 def segment_mpd(baselines: pl.DataFrame, starts: np.ndarray, length: float, dx: float) -> np.ndarray:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import platform
 import time
@@ -26,6 +25,8 @@ from roadtex.archive.schemas import (
     ERROR_SCHEMA,
     EXAMPLE_SCHEMA,
     PILOT_SCHEMA,
+    RUN_BAND_SCHEMA,
+    RUN_RUN_SCHEMA,
     RUN_SCHEMA,
     SEGMENT_SCHEMA,
     TABLES,
@@ -47,8 +48,6 @@ from roadtex.comparisons.figures import edge_effect
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
 
 Engine = Literal["local", "dask"]
-#: Per-run file stem -> the combined table whose columns it has.
-PER_RUN_TABLES = {"segments": "segments", "bands": "bands", "run": "runs", "example": "examples", "profiles": "profiles"}
 #: Units of ProcessingOptions' fields, recorded in parameters.json.
 OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
                 "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1", "error_budget_db": "dB"}
@@ -81,8 +80,7 @@ class ProcessSummary:
 
 
 def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | os.PathLike[str], *,
-                threads: int | None = None, force: bool = False, retry_failed: bool = False,
-                plan: JobPlan | None = None) -> dict[str, Any]:
+                threads: int | None = None, force: bool = False, retry_failed: bool = False) -> dict[str, Any]:
     """Processes one manifest row and writes its outputs atomically to ``out_dir/runs/<run_id>/``.
 
     ``options`` are the resolved ones (``dx`` set, see :class:`~roadtex.archive.plan.JobPlan`).
@@ -102,9 +100,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         input_sha256 = file_sha256(run["path"])
     except OSError as exc:
         input_sha256 = f"unreadable: {exc}"
-    # the plan's error estimates are in the run's tables: a new estimate means new tables
-    plan_key = json.dumps(plan.summary() if plan is not None else None, sort_keys=True, default=str)
-    fingerprint = run_fingerprint(options_fingerprint + plan_key, input_sha256, run)
+    fingerprint = run_fingerprint(options_fingerprint, input_sha256, run)
     previous = read_status(run_dir)
     if (not force and previous is not None and previous.get("fingerprint") == fingerprint
             and not (retry_failed and previous.get("state") == "error")):
@@ -118,7 +114,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
     try:
-        tables = compute_run(run, options, threads=threads, plan=plan)
+        tables = compute_run(run, options, threads=threads)
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)
@@ -126,8 +122,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         for name, table in tables.items():
             if table is None:
                 continue
-            write_atomically(run_dir / f"{name}.parquet", lambda p, t=table, n=name: t.write_parquet(
-                p, statistics=True, metadata=parquet_metadata(TABLES[PER_RUN_TABLES[n]])))
+            write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
     for stale in ("example", "segments", "bands", "run", "profiles"):
@@ -183,7 +178,7 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     resolved = plan.resolved(options)
     progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
-    flags = {"force": force, "retry_failed": retry_failed, "plan": plan}
+    flags = {"force": force, "retry_failed": retry_failed}
     try:
         if engine == "local":
             finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
@@ -234,16 +229,18 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         parts["runs"].append(run_dir / "run.parquet")
         if (run_dir / "example.parquet").exists():
             parts["examples"].append(run_dir / "example.parquet")
-    schemas = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
+    schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
+    combined = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
         metadata = parquet_metadata(TABLES[name])
         if files:
-            query = pl.scan_parquet(files, schema=schemas[name])
+            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan).select(
+                [pl.col(c).cast(t) for c, t in combined[name].items()])
             write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
-            empty = pl.DataFrame(schema=schemas[name])
+            empty = pl.DataFrame(schema=combined[name])
             write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, metadata=m))
         written[name] = path
     edge = edge_effect_table(options)
@@ -268,6 +265,26 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     if options.keep_profiles:
         written["profiles"] = out / "runs"
     return written
+
+
+def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFrame:
+    """The plan's columns added to a combined table: each band row's error estimate, each run's
+    worst error, budget verdict, speed-up and time saved (null where the plan has none)."""
+    if name == "bands":
+        errors = {} if plan is None else {b: e for b, e in plan.band_error_db.items() if np.isfinite(e)}
+        frame = pl.DataFrame({"band": list(errors), "level_error_db": list(errors.values())},
+                             schema={"band": pl.Int64, "level_error_db": pl.Float64})
+        return query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+    if name == "runs":
+        speedup = None if plan is None else plan.speedup
+        finest = None if plan is None else plan.finest_seconds_per_metre
+        timed = speedup is not None and finest is not None and speedup > 0
+        return query.with_columns(
+            pl.lit(None if plan is None else plan.worst_error_db, dtype=pl.Float64).alias("worst_level_error_db"),
+            pl.lit(None if plan is None else plan.within_budget, dtype=pl.Boolean).alias("within_budget"),
+            pl.lit(speedup, dtype=pl.Float64).alias("speedup"),
+            (pl.col("length") * finest * (1.0 - 1.0 / speedup) if timed else pl.lit(None, dtype=pl.Float64)).alias("time_saved"))
+    return query
 
 
 def software_versions() -> dict[str, str]:

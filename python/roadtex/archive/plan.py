@@ -53,6 +53,8 @@ class JobPlan:
             that band (texture, enveloped, pressure; any segment, modulus and group).
         seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
         finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        speedup: the finest setting's work over the chosen one's (iterations x N log2 N per metre,
+            the pilots' count: unlike the times, the machine's load does not change it).
         pilot_seconds: wall time of the pilots (s).
         groups: (device, pavement) groups and the runs each pilot read.
     """
@@ -66,6 +68,7 @@ class JobPlan:
     band_error_db: dict[int, float] = field(default_factory=dict)
     seconds_per_metre: float | None = None
     finest_seconds_per_metre: float | None = None
+    speedup: float | None = None
     pilot_seconds: float = 0.0
     groups: dict[str, list[str]] = field(default_factory=dict)
 
@@ -164,13 +167,18 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
             f"estimated error in the tyre/road noise bands is {worst:.3g} dB; the job runs at the cheapest setting "
             "near that floor and states the error of every band (bands.parquet level_error_db)",
             ErrorBudgetWarning, stacklevel=3)
+    study = pl.concat(studies, how="diagonal_relaxed")
+    per_group = study.group_by("group").agg(
+        pl.col("work_per_metre").filter(pl.col("chosen")).max().alias("chosen"),
+        pl.col("work_per_metre").filter(pl.col("reference")).max().alias("finest"))
+    speedup = float((per_group["finest"] / per_group["chosen"]).min())
     plan = JobPlan(
         dx=float(dx), tol=float(tol), source=f"error budget pilots of {len(choices)} group(s)",
         budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
-        finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)),
+        finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
         pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs)
-    return plan, pl.concat(studies, how="diagonal_relaxed")
+    return plan, study
 
 
 def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:

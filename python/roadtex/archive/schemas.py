@@ -102,8 +102,8 @@ RUN_COLUMNS: Columns = {
     "mpd_baselines": (pl.Int64(), "count"),
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
     "within_budget": (pl.Boolean(), None),        # null without budget
-    "speedup": (pl.Float64(), "1"),               # finest setting's solve time / this one's (the pilot's)
-    "time_saved": (pl.Float64(), "s"),            # solve time saved on this run against the finest setting
+    "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count)
+    "time_saved": (pl.Float64(), "s"),            # estimated solve time saved on this run against the finest setting
 }
 PILOT_COLUMNS: Columns = {
     "group": (pl.String(), None),                 # device / pavement group of runs sharing one pilot
@@ -117,6 +117,7 @@ PILOT_COLUMNS: Columns = {
     "centre_wavelength": (pl.Float64(), "m"),
     "in_budget": (pl.Boolean(), None),            # a tyre/road noise band the budget applies to
     "seconds_per_metre": (pl.Float64(), "s/m"),   # solve time, every modulus, per metre of road
+    "work_per_metre": (pl.Float64(), "1/m"),      # iterations x N log2 N of those solves per metre
     "texture_error_db": (pl.Float64(), "dB"),
     "enveloped_error_db": (pl.Float64(), "dB"),
     "pressure_error_db": (pl.Float64(), "dB"),
@@ -182,6 +183,12 @@ PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
 EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
 EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
+#: Columns the job adds when it combines the per-run tables: what the plan says (its error
+#: estimates and timings), which must not make a run's own tables stale when the plan is redone.
+PLAN_BAND_COLUMNS = ("level_error_db",)
+PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved")
+RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}
+RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUMNS}
 #: Each table the job writes, by file stem, with its declaration.
 TABLES: dict[str, Columns] = {
     "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,

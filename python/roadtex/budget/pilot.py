@@ -77,15 +77,16 @@ class BudgetChoice:
         return self.finest_seconds_per_metre / self.seconds_per_metre
 
 
-def summarise(rows: list[dict]) -> dict[tuple[float, float], tuple[float, float]]:
-    """(dx, tol) -> (worst budget-band error dB, seconds per metre)."""
-    out: dict[tuple[float, float], tuple[float, float]] = {}
+def summarise(rows: list[dict]) -> dict[tuple[float, float], tuple[float, float, float]]:
+    """(dx, tol) -> (worst budget-band error dB, work per metre, seconds per metre). Settings are
+    compared by work (iterations x N log2 N), which the machine's load does not change."""
+    out: dict[tuple[float, float], tuple[float, float, float]] = {}
     for row in rows:
         key = (row["dx"], row["tol"])
-        worst, seconds = out.get(key, (0.0, row["seconds_per_metre"]))
+        worst, work, seconds = out.get(key, (0.0, row["work_per_metre"], row["seconds_per_metre"]))
         if row["in_budget"]:
             worst = max(worst, row["level_error_db"])
-        out[key] = (worst, seconds)
+        out[key] = (worst, work, seconds)
     return out
 
 
@@ -186,7 +187,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         floor = min(v[0] for v in summary.values())
         within = {k: v for k, v in summary.items() if v[0] <= 1.05 * floor + 0.01}
     key = min(within, key=lambda k: (within[k][1], -k[0]))
-    worst, seconds = summary[key]
+    worst, _, seconds = summary[key]
     chosen = [r for r in rows if (r["dx"], r["tol"]) == key]
     return BudgetChoice(
         dx=key[0], tol=key[1], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,

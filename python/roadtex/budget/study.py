@@ -70,7 +70,7 @@ KINDS = ("texture", "enveloped", "pressure")
 STUDY_SCHEMA = {
     "dx": pl.Float64, "points": pl.Int64, "tol": pl.Float64, "reference": pl.Boolean, "band": pl.Int64,
     "label": pl.String, "centre_wavelength": pl.Float64, "in_budget": pl.Boolean,
-    "seconds_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
+    "seconds_per_metre": pl.Float64, "work_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
     "pressure_error_db": pl.Float64, "level_error_db": pl.Float64, "pilot_segments": pl.Int64,
 }
 
@@ -98,6 +98,7 @@ class Pilot:
     levels: np.ndarray               # (2, pilot rows, bands) enveloped, pressure at the reference
     reference_error: np.ndarray      # (2, bands) reference's own error estimate
     seconds_per_metre: float
+    work_per_metre: float
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -144,8 +145,10 @@ def band_columns(levels_bands: pl.DataFrame, bands: np.ndarray) -> tuple[np.ndar
     return columns, ok
 
 
-def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Enveloped and pressure levels (2, rows, bands) of ``heights`` at (dx, tol), reported flags, seconds."""
+def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Enveloped and pressure levels (2, rows, bands) of ``heights`` at (dx, tol), reported flags,
+    seconds, and the work: iterations x N log2 N summed over the solves, a cost measure that, unlike
+    the seconds, does not depend on the machine's load, so that the same inputs choose the same setting."""
     start = time.perf_counter()
     batch = contact_many(heights, dx, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
                          max_iterations=pilot.max_iterations, threads=pilot.threads, warm_start=True,
@@ -157,7 +160,9 @@ def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tu
                            reference=REFERENCE_PRESSURE)
     columns, ok = band_columns(envelope.bands, pilot.bands["band"].to_numpy())
     levels = np.stack([envelope.levels[:, columns], pressure.levels[:, columns]])
-    return levels, ok, seconds
+    n = heights.shape[1]
+    work = float(np.sum(batch.iterations)) * n * np.log2(n)
+    return levels, ok, seconds, work
 
 
 def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -189,13 +194,14 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     pilot = Pilot(profiles, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
                   length, kind, spike_alpha, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
-                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0)
-    pilot.levels, _, seconds = solve_levels(pilot, heights[chosen], dx, REFERENCE_TOL)
+                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0)
+    pilot.levels, _, seconds, work = solve_levels(pilot, heights[chosen], dx, REFERENCE_TOL)
     pilot.seconds_per_metre = seconds / (chosen.size * length)
+    pilot.work_per_metre = work / (chosen.size * length)
     if not include_reference_error:
         pilot.reference_error = np.zeros(pilot.levels[:, 0].shape)
         return pilot
-    halved, _, _ = solve_levels(pilot, np.repeat(heights[chosen], 2, axis=1), dx / 2, REFERENCE_TOL)
+    halved, _, _, _ = solve_levels(pilot, np.repeat(heights[chosen], 2, axis=1), dx / 2, REFERENCE_TOL)
     # Richardson, first order: L(dx) - L(0) ~ 2 (L(dx) - L(dx / 2)); spread to the run's rows as below.
     # On CAPTIF the differences fall about 3 times per halving (order ~1.5), so order 1 is on the safe side.
     pilot.reference_error = 2.0 * extreme(np.moveaxis(difference(halved, pilot.levels), 1, 0), pilot.run_rows)
@@ -242,9 +248,11 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]
     for tol in tols:
         if is_reference_dx and tol == REFERENCE_TOL:
             solved, seconds_per_metre, ok = pilot.levels, pilot.seconds_per_metre, np.ones(pilot.bands.height, bool)
+            work_per_metre = pilot.work_per_metre
         else:
-            solved, ok, seconds = solve_levels(pilot, heights, used, tol)
+            solved, ok, seconds, work = solve_levels(pilot, heights, used, tol)
             seconds_per_metre = seconds / (heights.shape[0] * pilot.segment_length)
+            work_per_metre = work / (heights.shape[0] * pilot.segment_length)
         measured = np.where(ok, difference(solved, pilot.levels), np.nan)  # NaN: not reported at dx
         errors = SPREAD_FACTOR * extreme(np.moveaxis(measured, 1, 0), pilot.run_rows) + pilot.reference_error
         errors = np.where(ok, errors, np.inf)
@@ -254,6 +262,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]
                 "reference": bool(is_reference_dx and tol == REFERENCE_TOL), "band": band["band"],
                 "label": band["label"], "centre_wavelength": band["centre_wavelength"],
                 "in_budget": band["in_budget"], "seconds_per_metre": seconds_per_metre,
+                "work_per_metre": work_per_metre,
                 "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
                 "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
             }
