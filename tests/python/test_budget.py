@@ -137,12 +137,16 @@ def test_synthetic_choice_meets_the_budget_and_states_its_error(kind: str, budge
     check_choice(choice, actual, within=True)
 
 
-def test_an_unreachable_budget_falls_back_to_the_finest_setting_and_says_so(asphalt: roadtex.Profile) -> None:
+def test_an_unreachable_budget_runs_near_the_floor_and_says_so(asphalt: roadtex.Profile) -> None:
     # at 0.02 mm the 2.5 mm band of this profile is itself ~0.1 dB from the converged answer
     choice = roadtex.choose_setting(asphalt, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=0.1,
                                     budget_db=0.05)
     assert not choice.within_budget and choice.worst_error_db > 0.05
-    assert choice.points == 5000 and choice.tol == 1e-10 and choice.speedup == 1.0
+    # the cheapest setting within 5 % (and 0.01 dB) of the smallest error evaluated, not the dearest
+    worst = choice.study.filter(pl.col("in_budget")).group_by("dx", "tol").agg(pl.col("level_error_db").max())
+    floor = worst["level_error_db"].min()
+    assert choice.worst_error_db <= 1.05 * floor + 0.01
+    assert choice.points == 5000
     actual = actual_errors(asphalt, choice.dx, choice.tol, MODULI, 0.1, refine=4)
     check_choice(choice, actual, within=False)
 

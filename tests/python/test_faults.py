@@ -21,6 +21,7 @@ import pytest
 from polars.testing import assert_frame_equal
 
 from roadtex.archive import ArchiveWriteError, ProcessingOptions, process
+from roadtex.archive.schemas import PLAN_BAND_COLUMNS, PLAN_RUN_COLUMNS
 from roadtex.profiles import Profile, read_profile, write_profile
 from roadtex.profiles.pavements import synthetic_pavement
 
@@ -241,7 +242,9 @@ def test_file_corrupted_between_two_jobs_leaves_no_stale_results(tmp_path, archi
         got = table(out, name)
         if name == "runs":  # the copies live elsewhere
             expected, got = expected.drop("path"), got.drop("path")
-        assert_frame_equal(got, expected, check_exact=True)
+        # the plan's error estimates come from this job's pilot, which could not read run01 now
+        plan_columns = [c for c in (*PLAN_BAND_COLUMNS, *PLAN_RUN_COLUMNS) if c in got.columns]
+        assert_frame_equal(got.drop(plan_columns), expected.drop(plan_columns), check_exact=True)
 
 
 # --------------------------------------------------------------------------------------------

@@ -276,14 +276,15 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFr
                              schema={"band": pl.Int64, "level_error_db": pl.Float64})
         return query.join(frame.lazy(), on="band", how="left", maintain_order="left")
     if name == "runs":
+        # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
+        # give the same bits): the saving as a share of the solver work; measured seconds are in
+        # parameters.json and pilot.parquet.
         speedup = None if plan is None else plan.speedup
-        finest = None if plan is None else plan.finest_seconds_per_metre
-        timed = speedup is not None and finest is not None and speedup > 0
         return query.with_columns(
             pl.lit(None if plan is None else plan.worst_error_db, dtype=pl.Float64).alias("worst_level_error_db"),
             pl.lit(None if plan is None else plan.within_budget, dtype=pl.Boolean).alias("within_budget"),
             pl.lit(speedup, dtype=pl.Float64).alias("speedup"),
-            (pl.col("length") * finest * (1.0 - 1.0 / speedup) if timed else pl.lit(None, dtype=pl.Float64)).alias("time_saved"))
+            pl.lit(None if not speedup else 1.0 - 1.0 / speedup, dtype=pl.Float64).alias("time_saved_fraction"))
     return query
 
 

@@ -135,22 +135,25 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         groups.setdefault(group_key(run), []).append(run)
     choices, studies, read_runs = [], [], {}
     for key, members in groups.items():
-        read = readable(spread(members, PILOT_RUNS_PER_GROUP), options)
-        if not read:
-            continue
-        try:
-            choice = choose_setting(
-                [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
-                mean_pressure=options.mean_pressure, segment_length=options.segment_length,
-                budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
-                poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
-                max_iterations=options.max_iterations, threads=threads)
-        except Exception:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
-            continue
-        choices.append(choice)
-        read_runs[key] = [run["run_id"] for run, _ in read]
-        studies.append(choice.study.with_columns(pl.lit(key).alias("group"),
-                                                 ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
+        # one pilot per sampling interval within the group (a pilot compares runs on one grid)
+        by_dx: dict[float, list[tuple[dict[str, Any], Profile]]] = {}
+        for run, profile in readable(spread(members, PILOT_RUNS_PER_GROUP), options):
+            by_dx.setdefault(float(f"{profile.dx:.2g}"), []).append((run, profile))
+        for spacing, read in by_dx.items():
+            name = key if len(by_dx) == 1 else f"{key} @ {spacing * 1e3:g} mm"
+            try:
+                choice = choose_setting(
+                    [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
+                    mean_pressure=options.mean_pressure, segment_length=options.segment_length,
+                    budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
+                    poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
+                    max_iterations=options.max_iterations, threads=threads)
+            except Exception:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
+                continue
+            choices.append(choice)
+            read_runs[name] = [run["run_id"] for run, _ in read]
+            studies.append(choice.study.with_columns(
+                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
     if not choices:
         fallback = plan_without_budget(runs, options)
         return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "

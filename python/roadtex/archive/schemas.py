@@ -103,7 +103,7 @@ RUN_COLUMNS: Columns = {
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
     "within_budget": (pl.Boolean(), None),        # null without budget
     "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count)
-    "time_saved": (pl.Float64(), "s"),            # estimated solve time saved on this run against the finest setting
+    "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
 }
 PILOT_COLUMNS: Columns = {
     "group": (pl.String(), None),                 # device / pavement group of runs sharing one pilot
@@ -186,7 +186,7 @@ PILOT_SCHEMA = schema(PILOT_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
 PLAN_BAND_COLUMNS = ("level_error_db",)
-PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved")
+PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction")
 RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}
 RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUMNS}
 #: Each table the job writes, by file stem, with its declaration.
