@@ -43,7 +43,7 @@ def test_readme_commands_on_the_real_captif_files(tmp_path: Path, captif_dir: Pa
     runs = pl.read_parquet(tmp_path / "results" / "runs.parquet")
     assert runs.height == 3 and pl.read_parquet(tmp_path / "results" / "errors.parquet").height == 0
     # one sampling interval for the whole job, and the plates (about 0.1 m) trimmed, nothing else
-    assert runs["dx"].n_unique() == 1
+    assert runs["dx_used"].n_unique() == 1
     assert runs["trimmed_length"].is_between(0.08, 0.13).all(), runs["trimmed_length"]
     # MPD with its ISO validity, null never NaN
     assert runs["mpd_baselines"].min() >= 17 and (runs["mpd_valid_baselines"] <= runs["mpd_baselines"]).all()
