@@ -108,3 +108,24 @@ def test_dask_and_local_tables_are_bit_identical_on_real_data(tmp_path: Path, ca
     for name in ("segments", "bands", "runs", "examples"):
         assert_frame_equal(pl.read_parquet(tmp_path / "dask" / f"{name}.parquet"),
                            pl.read_parquet(tmp_path / "local" / f"{name}.parquet"), check_exact=True)
+
+
+def test_budget_off_with_a_given_dx_and_tol_is_the_plain_pipeline_bit_for_bit(mixed, tmp_path: Path) -> None:
+    """--error-budget off --dx --tol: exactly read, clean, condition, segment, contact_many, band_levels."""
+    from roadtex.profiles import read_profile
+    from roadtex.spectra import band_levels
+
+    folder, _ = mixed
+    options = dataclasses.replace(OPTIONS, youngs_moduli=(1e6, 1e7), error_budget_db=None, dx=0.25e-3, tol=1e-6)
+    process(pl.DataFrame({"path": [str(folder / "fine.csv")]}), tmp_path / "out", options, quiet=True)
+    profile = read_profile(folder / "fine.csv").conditioned(dx=0.25e-3, spike_alpha=options.spike_alpha)
+    segments = profile.segments(options.segment_length)
+    batch = roadtex.contact_many(segments.heights, 0.25e-3, list(options.youngs_moduli), options.mean_pressure,
+                                 tol=1e-6, warm_start=True, raise_on_nonconvergence=False)
+    rows = batch.envelope.shape[0] * batch.envelope.shape[1]
+    enveloped = band_levels(batch.envelope.reshape(rows, -1), 0.25e-3, periodic=True)
+    bands = pl.read_parquet(tmp_path / "out" / "bands.parquet").sort("segment", "youngs_modulus", "band")
+    assert bands["level_error_db"].null_count() == bands.height
+    got = bands["enveloped_level"].to_numpy().reshape(rows, -1)
+    expected = np.where(np.isfinite(enveloped.levels), enveloped.levels, np.nan)
+    np.testing.assert_array_equal(got, expected)
