@@ -427,3 +427,155 @@ def test_unreported_bands_and_null_levels(results: Path, altered: dict, tmp_path
     changed = full.filter((pl.col("pressure_level") - pl.col("pressure_level_null")).abs() > 1e-9)
     assert changed.select("run_id", "band").rows() == [(band["run_id"], 21)]
     assert altered["report"].figures["pressure_vs_texture"][0].stat().st_size > 10_000
+
+
+# --------------------------------------------------------------------------------------------------
+# Issue 15: speed against error of the pilot's settings, and the numerical error of every band
+# --------------------------------------------------------------------------------------------------
+
+def worst_in_budget(pilot: pl.DataFrame) -> pl.DataFrame:
+    """Per group and setting, the largest level error over the budget bands and the time per km."""
+    return (pilot.filter(pl.col("in_budget")).group_by("group", "dx", "tol")
+            .agg(pl.col("level_error_db").max().alias("worst"), (pl.col("seconds_per_metre").first() * 1e3).alias("s_km"),
+                 pl.col("chosen").first(), pl.col("reference").first()))
+
+
+@pytest.fixture(scope="module")
+def budget_off(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The synthetic archive processed with the error budget off, and its report."""
+    folder = tmp_path_factory.mktemp("budget_off")
+    manifest = write_synthetic_archive(folder / "archive", runs_per_kind=1, run_length=1.0)
+    options = ProcessingOptions(youngs_moduli=(1e6,), segment_length=0.25, tol=1e-8, error_budget_db=None)
+    process(manifest, folder / "results", options, quiet=True)
+    return {"folder": folder / "results", "report": build_report(folder / "results")}
+
+
+@pytest.fixture(scope="module")
+def without_pilot(results: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """``results`` as a roadtex before the error budget left it: no pilot.parquet."""
+    copy = tmp_path_factory.mktemp("no_pilot") / "results"
+    shutil.copytree(results, copy, ignore=shutil.ignore_patterns("report", "pilot.parquet"))
+    return {"folder": copy, "report": build_report(copy)}
+
+
+def speed_figure_text(fig) -> str:
+    return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+
+
+def test_speed_against_error_figure_is_always_in_the_report(report, results: Path, budget_off: dict,
+                                                            without_pilot: dict) -> None:
+    """With the budget on the figure shows the pilot's settings; with it off, and for a folder without
+    pilot.parquet, it is still there and says why it has no points."""
+    assert len(pl.read_parquet(results / "pilot.parquet")) > 0
+    assert pl.read_parquet(budget_off["folder"] / "pilot.parquet").height == 0
+    for built, says in ((report, None), (budget_off["report"], "error budget off"),
+                        (without_pilot["report"], "No pilot was recorded")):
+        png, svg = built.figures["setting_speed_vs_error"]
+        assert png.stat().st_size > 5_000 and svg.exists()
+        parsed = WellFormed()
+        parsed.feed(built.html.read_text(encoding="utf-8"))
+        assert "setting_speed_vs_error" in parsed.figures
+        caption = next(c for c in parse(built.html).captions if "Speed against error of the processed archive" in c)
+        if says is None:
+            assert "No pilot" not in caption
+        else:
+            assert says in caption
+    plt = pyplot()
+    for folder, says in ((budget_off["folder"], "error budget off"), (without_pilot["folder"], "No pilot was recorded")):
+        figures, _ = draw_figures(load_results(folder))
+        fig = figures["setting_speed_vs_error"]
+        assert says in speed_figure_text(fig)
+        assert not any(len(c.get_offsets()) for ax in fig.axes for c in ax.collections)
+        for f in figures.values():
+            plt.close(f)
+
+
+def test_chosen_point_is_plotted_at_the_chosen_setting(drawn, results: Path) -> None:
+    """One panel per pilot group; its points are every setting the pilot evaluated, at (worst level
+    error over the budget bands, seconds per metre x 1000) read from pilot.parquet; the starred point
+    is the chosen setting's; the budget is the dashed line; the reference is labelled."""
+    pilot = pl.read_parquet(results / "pilot.parquet")
+    settings = worst_in_budget(pilot)
+    fig = drawn["setting_speed_vs_error"]
+    panels = {ax.get_title().replace("\n", " "): ax for ax in fig.axes if ax.get_visible()}
+    groups = pilot["group"].unique().to_list()
+    assert len(panels) == len(groups) >= 3
+    budget = json.loads((results / "parameters.json").read_text())["plan"]["budget_db"]
+    for group in groups:
+        ax = next(a for title, a in panels.items() if group in title)
+        mine = settings.filter(pl.col("group") == group)
+        chosen = mine.filter(pl.col("chosen"))
+        assert chosen.height == 1
+        stars = [c for c in ax.collections if c.get_gid() == "chosen"]
+        assert len(stars) == 1
+        np.testing.assert_allclose(stars[0].get_offsets(), [[chosen["worst"][0], chosen["s_km"][0]]], rtol=1e-12)
+        plotted = np.concatenate([np.column_stack(line.get_data()) for line in ax.lines if line.get_marker() == "o"])
+        expected = mine.select("worst", "s_km").to_numpy()
+        assert len(plotted) == len(expected)
+        assert sorted(map(tuple, np.round(plotted, 12))) == sorted(map(tuple, np.round(expected, 12)))
+        assert [line.get_xdata()[0] for line in ax.lines if line.get_linestyle() == "--"] == [budget]
+        assert any("finest (reference)" in t.get_text() for t in ax.texts)
+        assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    assert "s/km" in fig.axes[0].get_ylabel()
+
+
+def test_band_error_table_lists_every_band_of_the_plan(report, results: Path) -> None:
+    """Every band of the plan with its label, whether the budget applies, the plan's error and each
+    group's error at its chosen setting (pilot.parquet); the line with budget, dx, tol, verdict,
+    speed-up and pilot time; the budget not met said plainly, with its floor."""
+    plan = json.loads((results / "parameters.json").read_text())["plan"]
+    pilot = pl.read_parquet(results / "pilot.parquet")
+    table = parse(report.html).tables["band-errors"]
+    bands = sorted(int(b) for b in plan["band_error_db"])
+    facts = pilot.group_by("band").agg(pl.col("label").first(), pl.col("in_budget").first()).sort("band")
+    facts = facts.filter(pl.col("band").is_in(bands))
+    assert column(table, "band (mm)") == facts["label"].to_list() and len(bands) == len(table["rows"])
+    assert column(table, "in budget") == ["yes" if v else "no" for v in facts["in_budget"]]
+    shown = [float(v) for v in column(table, "estimated error at the job's setting (dB)")]
+    np.testing.assert_allclose(shown, [plan["band_error_db"][str(b)] for b in bands], rtol=5e-3)
+    for group in pilot["group"].unique().to_list():
+        at_choice = pilot.filter(pl.col("chosen") & (pl.col("group") == group) & pl.col("band").is_in(bands)).sort("band")
+        values = [float(v) for v in column(table, f"at the chosen setting of {group} (dB)")]
+        np.testing.assert_allclose(values, at_choice["level_error_db"].to_numpy(), rtol=5e-3)
+    text = text_without_images(report.html)
+    assert f"dx = {plain(plan['dx'] * 1e3)} mm and tol = 10⁻⁸" in text
+    assert f"{plain(plan['speedup'])} times less solver work" in text
+    assert f"the pilots took {plain(plan['pilot_seconds'])} s" in text
+    assert f"Error budget {plain(plan['budget_db'])} dB" in text
+    # The synthetic archive's 0.5 mm sampling cannot meet 0.2 dB: the floor is the group whose best
+    # setting is worst.
+    assert plan["within_budget"] is False
+    floor = worst_in_budget(pilot).group_by("group").agg(pl.col("worst").min())["worst"].max()
+    assert "Within budget: no" in text and "could not be met at the data's sampling" in text
+    assert f"the floor, is {plain(floor)} dB" in text and floor > plan["budget_db"]
+
+
+def test_within_budget_is_said_without_a_floor(results: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "results"
+    shutil.copytree(results, copy, ignore=shutil.ignore_patterns("report"))
+    parameters = json.loads((copy / "parameters.json").read_text())
+    parameters["plan"]["within_budget"] = True
+    (copy / "parameters.json").write_text(json.dumps(parameters))
+    text = text_without_images(build_report(copy).html)
+    assert "Within budget: yes" in text and "could not be met" not in text
+
+
+def test_budget_off_and_missing_pilot_are_said(budget_off: dict, without_pilot: dict, results: Path) -> None:
+    """Budget off: no estimate to tabulate, and the section says so with the setting used. No
+    pilot.parquet: the plan's bands are still listed (labels from bands.parquet), and the section
+    says no pilot was recorded."""
+    off = parse(budget_off["report"].html)
+    assert "band-errors" not in off.tables
+    assert "the job ran with the error budget off (every run solved at dx = 0.5 mm, tol = 10⁻⁸)" in \
+        text_without_images(budget_off["report"].html)
+    runs = pl.read_parquet(budget_off["folder"] / "runs.parquet")
+    assert runs["worst_level_error_db"].is_null().all()
+    assert column(off.tables["conditioning"], "tol") == ["10⁻⁸"] * runs.height
+
+    plan = json.loads((results / "parameters.json").read_text())["plan"]
+    missing = parse(without_pilot["report"].html)
+    table = missing.tables["band-errors"]
+    assert len(table["rows"]) == len(plan["band_error_db"])
+    assert set(column(table, "in budget")) == {"n/a"}
+    assert not any(h.startswith("at the chosen setting") for h in table["header"])
+    assert "No pilot was recorded" in text_without_images(without_pilot["report"].html)

@@ -40,6 +40,20 @@ def plain(value: float, digits: int = 3) -> str:
     return np.format_float_positional(float(value), precision=digits, unique=True, fractional=False, trim="-")
 
 
+SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def tolerance(value: float) -> str:
+    """A solver tolerance as people write it, never with an exponent: an exact power of ten from
+    10⁻⁴ down as "10⁻⁸", anything else positional to 3 significant digits (2.5e-6 -> "0.0000025"); "n/a" when missing."""
+    if value is None or not np.isfinite(value) or value <= 0:
+        return "n/a" if value is None or np.isnan(value) else plain(value)
+    power = round(float(np.log10(value)))
+    if power <= -4 and abs(value / 10.0 ** power - 1.0) < 1e-9:
+        return f"10{str(power).translate(SUPERSCRIPTS)}"
+    return plain(value)
+
+
 def megapascals(value: float) -> str:
     """A modulus or pressure in Pa written in MPa: 2.5e6 -> "2.5 MPa"."""
     return f"{plain(value / MPA, 4)} MPa"
@@ -75,10 +89,19 @@ class Results:
     examples: pl.DataFrame
     edge_effect: pl.DataFrame
     parameters: dict[str, Any]
+    #: pilot.parquet (empty when the job ran with the error budget off; None when the folder has no
+    #: such file: written by a roadtex before the error budget).
+    pilot: pl.DataFrame | None = None
 
     @property
     def options(self) -> dict[str, Any]:
         return self.parameters.get("options", {})
+
+    @property
+    def plan(self) -> dict[str, Any]:
+        """parameters.json's ``plan`` (how the job chose dx and tol, and its error estimates); empty
+        when the folder has none."""
+        return self.parameters.get("plan") or {}
 
     @property
     def moduli(self) -> list[float]:
@@ -110,12 +133,14 @@ def load_results(results_dir: Path) -> Results:
     if segments.height == 0:
         raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed (see errors.parquet)")
     errors_path = results_dir / "errors.parquet"
+    pilot_path = results_dir / "pilot.parquet"
     return Results(results_dir, segments, read_reported_bands(results_dir / "bands.parquet"),
                    pl.read_parquet(results_dir / "runs.parquet"),
                    pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
                    pl.read_parquet(results_dir / "examples.parquet"),
                    pl.read_parquet(results_dir / "edge_effect.parquet"),
-                   json.loads((results_dir / "parameters.json").read_text()))
+                   json.loads((results_dir / "parameters.json").read_text()),
+                   pl.read_parquet(pilot_path) if pilot_path.exists() else None)
 
 
 @dataclass

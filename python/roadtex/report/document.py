@@ -1,22 +1,25 @@
 """The report: the seed's figures drawn for a processed archive, in one self-contained HTML file.
 
 :func:`build_report` reads only the outputs that :func:`roadtex.archive.process` wrote
-(``segments``, ``bands``, ``runs``, ``errors``, ``examples``, ``edge_effect`` and
+(``segments``, ``bands``, ``runs``, ``errors``, ``examples``, ``edge_effect``, ``pilot`` and
 ``parameters.json``): it never re-reads a raw file nor solves a contact problem, so its figures show
 exactly what the tables hold. It writes ``report.html`` (figures embedded as PNG data, no network
 needed) plus every figure as PNG and SVG in ``figures/``.
 
 The document holds: a summary; the failed runs (from ``errors.parquet``, or a line saying there
 were none); per run the results (MPD, contact fraction per E, mean texture level) and the
-conditioning facts (sampling intervals, trimmed length, reference plates, share of readings
-removed, warnings, MPD validity); the figures; the regressions of figure "pressure against
+conditioning facts (sampling intervals, solver tolerance, trimmed length, reference plates, share
+of readings removed, warnings, MPD validity); the numerical error per band (the error budget, the
+setting used, whether it was met, the speed-up, and each band's estimated error; see
+:mod:`~roadtex.report.error_budget`); the figures; the regressions of figure "pressure against
 texture". Figures are numbered by their order in the document (Figure 1, 2, ...); each caption says
 which figure of the INRETS report (Klein & Hamet, the seed) it reproduces: 2.1 von Meier envelopes
 at several d*; 3.1 the edge effect of a finite sample; 4.1 enveloped profiles per pavement at
 several E; 4.2 their pressure distributions; 4.3 valley penetration, von Meier against INRETS; 4.4
 texture spectra of enveloped profiles and their difference from the original; 4.5 pressure
 spectra; 4.6 pressure level against texture level per octave band with a regression line per E;
-then solver speed against error when benchmark data (``benches/speed_vs_error.py --json``) is given
+then, always, the speed against error of every setting the error-budget pilot evaluated (saying so
+when there was no pilot); then solver speed against error when benchmark data (``benches/speed_vs_error.py --json``) is given
 or found. Moduli and pressures are in MPa, levels in dB re 1 µm (texture) and dB re 1 Pa
 (pressure).
 """
@@ -45,7 +48,9 @@ from roadtex.report.data import (
     megapascals,
     plain,
     pyplot,
+    tolerance,
 )
+from roadtex.report.error_budget import band_error_table, budget_summary, fig_setting_speed_vs_error, pilot_state
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
 
@@ -64,6 +69,13 @@ FIGURES: dict[str, str] = {
     "pressure_spectra": f"Band spectra of the contact pressure ({PRESSURE_DB}).",
     "pressure_vs_texture": (f"Pressure level ({PRESSURE_DB}) against enveloped texture level ({TEXTURE_DB}) "
                             "per octave band, one regression line per E."),
+    "setting_speed_vs_error": (
+        "Speed against error of the processed archive: for each device/pavement group, every setting "
+        "(sampling interval dx, solver tolerance tol) the error-budget pilot evaluated, its measured solve time "
+        "per km of road (every modulus) against its worst estimated level error in the tyre/road noise bands; "
+        "the chosen setting starred, the finest (reference) setting boxed, the budget dashed. The pilot chooses "
+        "by solver work (iterations × N log₂ N), which the machine's load does not move; the times shown are "
+        "measured."),
     "speed_vs_error": "Solver speed against error (from the benchmark data).",
 }
 #: The figure of the INRETS report (the seed) that each figure reproduces.
@@ -104,6 +116,7 @@ def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> t
         "pressure_spectra": fig_pressure_spectra(plt, results),
     }
     figures["pressure_vs_texture"], regressions = fig_pressure_vs_texture(plt, results)
+    figures["setting_speed_vs_error"] = fig_setting_speed_vs_error(plt, results)
     if benchmark is not None:
         fig = fig_speed_vs_error(plt, benchmark)
         if fig is not None:
@@ -111,9 +124,10 @@ def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> t
     return figures, regressions
 
 
-def captions(names: list[str]) -> dict[str, str]:
+def captions(names: list[str], notes: dict[str, str] | None = None) -> dict[str, str]:
     """Each figure's caption, numbered by its place in ``names`` (the document's order), with the
-    seed figure it reproduces: "Figure 3: ... (reproduces figure 4.1 of the INRETS report)."."""
+    seed figure it reproduces: "Figure 3: ... (reproduces figure 4.1 of the INRETS report).", and
+    the sentence ``notes[name]`` after it when given."""
     numbers = {name: index + 1 for index, name in enumerate(names)}
     fields = {name: numbers.get(name, "?") for name in FIGURES}
     out = {}
@@ -121,6 +135,8 @@ def captions(names: list[str]) -> dict[str, str]:
         text = FIGURES[name].format(**fields)
         if name in SEED_FIGURES:
             text = f"{text[:-1]} (reproduces figure {SEED_FIGURES[name]} of the INRETS report)."
+        if notes and notes.get(name):
+            text = f"{text} {notes[name]}"
         out[name] = f"Figure {numbers[name]}: {text}"
     return out
 
@@ -157,7 +173,8 @@ def run_table(results: Results) -> pl.DataFrame:
 
 #: runs.parquet's conditioning columns, their headings in the report and the factor to those units.
 CONDITIONING: dict[str, tuple[str, float]] = {
-    "file_dx": ("file dx (mm)", MM), "dx": ("dx (mm)", MM), "raw_length": ("read (m)", 1.0),
+    "file_dx": ("file dx (mm)", MM), "dx": ("dx (mm)", MM), "dx_used": ("dx (mm)", MM), "tol_used": ("tol", 1.0),
+    "raw_length": ("read (m)", 1.0),
     "trimmed_length": ("trimmed (mm)", MM), "plates": ("reference plates", 1.0),
     "dropout_fraction": ("drop-outs (%)", 100.0), "spike_fraction": ("spikes (%)", 100.0),
     "outlier_fraction": ("outliers (%)", 100.0), "mpd": ("MPD (mm)", MM), "mpd_valid": ("MPD valid", 1.0),
@@ -181,10 +198,23 @@ def conditioning_table(results: Results) -> pl.DataFrame:
             column = column.fill_nan(None) * factor
         elif name == "conditioning_warnings":
             column = column.fill_null("none")
+        if name == "tol_used":
+            column = pl.col(name).map_elements(tolerance, return_dtype=pl.String)
         columns.append(column.alias(heading))
         if name == "mpd_valid" and {"mpd_valid_baselines", "mpd_baselines"} <= set(runs.columns):
             columns.append(pl.format("{}/{}", "mpd_valid_baselines", "mpd_baselines").alias("valid MPD baselines"))
     return runs.select(columns)
+
+
+def error_table_section(results: Results) -> str:
+    """The table "numerical error per band" (:func:`~roadtex.report.error_budget.band_error_table`),
+    or nothing when the plan has no estimate (the summary says why)."""
+    table = band_error_table(results)
+    if table.height == 0:
+        return ""
+    return ("<p>Upper estimates of the numerical error of every level of each band (bands.parquet "
+            "level_error_db is the job's column), and per pilot group at its own chosen setting:</p>"
+            + html_table(table, classes="band-errors"))
 
 
 def failure_table(results: Results) -> pl.DataFrame:
@@ -234,7 +264,7 @@ def regression_table(regressions: pl.DataFrame) -> pl.DataFrame:
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 figure{margin:1.5em 0}figcaption{font-size:0.9em;color:#444}img{max-width:100%}
 table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #ccc;padding:2px 6px;text-align:right}
-th{background:#f0f0f0}code{background:#f4f4f4}td:first-child,.failures td,.conditioning td:nth-child(6),
+th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-child,.failures td,.conditioning td:nth-child(6),
 .conditioning td:last-child{text-align:left}"""
 
 
@@ -261,7 +291,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
     bench_rows = json.loads(benchmark_path.read_text()) if benchmark_path.exists() else None
     plt = pyplot()
     figures, regressions = draw_figures(results, bench_rows)
-    numbered = captions(list(figures))
+    numbered = captions(list(figures), {"setting_speed_vs_error": pilot_state(results) or ""})
     written: dict[str, list[Path]] = {}
     sections: list[str] = []
     for number, (name, fig) in enumerate(figures.items(), start=1):
@@ -294,10 +324,11 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "<h2>Failed runs</h2>", failure_section(results),
         "<h2>Runs</h2>", html_table(run_table(results), classes="runs"),
         "<h2>Conditioning of each run</h2>",
-        "<p>Sampling intervals (the file's, and the job's one dx for all runs), length read and trimmed away "
+        "<p>Sampling intervals (the file's, and the job's one dx for all runs) and solver tolerance, length read and trimmed away "
         "with the reference plates, share of readings that were drop-outs, spikes or outliers (replaced by "
         "interpolation), and MPD (ISO 13473-1) with its validity; n/a where MPD is undefined.</p>",
         html_table(conditioning_table(results), classes="conditioning"),
+        "<h2>Numerical error per band</h2>", budget_summary(results), error_table_section(results),
         "<h2>Figures</h2>", *sections,
         "<h2>Regressions of pressure level on texture level, per octave band and E</h2>",
         html_table(regression_table(regressions), classes="regressions"),
