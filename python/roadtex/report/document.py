@@ -264,7 +264,7 @@ def regression_table(regressions: pl.DataFrame) -> pl.DataFrame:
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 figure{margin:1.5em 0}figcaption{font-size:0.9em;color:#444}img{max-width:100%}
 table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #ccc;padding:2px 6px;text-align:right}
-th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-child,.failures td,.conditioning td:nth-child(6),
+th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-child,.failures td,.conditioning td:nth-child(7),
 .conditioning td:last-child{text-align:left}"""
 
 
