@@ -167,7 +167,16 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bar; one log line per run")
 
 
+def show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, file: object = None,
+                 line: str | None = None) -> None:
+    """Warnings as a command-line tool prints them: one line, no Python file and line number."""
+    print(f"roadtex: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    import warnings
+
+    warnings.showwarning = show_warning
     from roadtex._core import __version__
 
     parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
