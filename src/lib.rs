@@ -22,6 +22,7 @@ pub mod kernel;
 pub mod reference;
 pub mod solver;
 pub mod special;
+pub mod surface;
 pub mod synthetic;
 
 #[cfg(feature = "python")]

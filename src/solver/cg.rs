@@ -128,10 +128,11 @@ pub(crate) struct Problem<'a> {
 }
 
 /// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
-/// under another modulus) when given. `pair_sums` must hold the interval sums of `op`'s kernel.
+/// under another modulus) when given. `pair_sums` must hold the interval sums of `op`'s kernel;
+/// None solves without deflation (operators that are not 1-D Toeplitz, e.g. surfaces).
 pub(crate) fn solve<Op: Compliance>(
     op: &Op,
-    pair_sums: &PairSums,
+    pair_sums: Option<&PairSums>,
     problem: &Problem<'_>,
     initial: Option<&[f64]>,
     work: &mut Work<Op::Scratch>,
@@ -141,7 +142,7 @@ pub(crate) fn solve<Op: Compliance>(
     // The workspace reuse tag: a kept coarse space is only offered to the sweeps when it was built
     // from these very pair sums (the same kernel and dx; another solver of the same N has other
     // sums). The sweeps then reuse it only for the same set and dimension (CoarseSpace::is_same).
-    let coarse = work.coarse.take().filter(|(id, _)| *id == pair_sums.id()).map(|(_, c)| c);
+    let coarse = work.coarse.take().filter(|(id, _)| pair_sums.is_some_and(|s| *id == s.id())).map(|(_, c)| c);
     let mut context = Context {
         op,
         pair_sums,
@@ -154,7 +155,7 @@ pub(crate) fn solve<Op: Compliance>(
     };
     let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations);
     let Context { coarse, w, .. } = context;
-    w.coarse = coarse.map(|c| (pair_sums.id(), c));
+    w.coarse = coarse.zip(pair_sums).map(|(c, s)| (s.id(), c));
     outcome
 }
 
@@ -162,7 +163,8 @@ pub(crate) fn solve<Op: Compliance>(
 /// options, the coarse space and the work vectors.
 struct Context<'a, Op: Compliance> {
     op: &'a Op,
-    pair_sums: &'a PairSums,
+    /// None: no deflation.
+    pair_sums: Option<&'a PairSums>,
     z: &'a [f64],
     /// sum p = N P / E*: every iterate carries the load exactly.
     target_sum: f64,
@@ -318,9 +320,9 @@ impl<Op: Compliance> Context<'_, Op> {
     /// else a new one; None without deflation or with fewer than two runs.
     fn coarse_space(&mut self, rough: bool, deflate: bool) -> Option<CoarseSpace> {
         let current = self.coarse.take();
-        if !deflate {
+        let Some(pair_sums) = self.pair_sums.filter(|_| deflate) else {
             return None;
-        }
+        };
         let islands = runs(&self.w.mask);
         if islands.len() < 2 {
             return None;
@@ -349,7 +351,7 @@ impl<Op: Compliance> Context<'_, Op> {
         } else {
             None
         };
-        CoarseSpace::new(self.pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
+        CoarseSpace::new(pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
     }
 
     /// r = projected (z - C p) on the set: the gap the approach cannot close (C p fresh when
