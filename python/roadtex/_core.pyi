@@ -26,6 +26,16 @@ def solve_many(
     threads: int | None = None, warm_start: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
            npt.NDArray[np.bool_]]: ...
+def solve_surface(
+    heights: npt.NDArray[np.float64], dx: float, dy: float, youngs_modulus: float, poisson: float,
+    mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], int, float, bool]: ...
+def solve_surface_many(
+    tiles: npt.NDArray[np.float64], dx: float, dy: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
+    mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
+    threads: int | None = None, warm_start: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
+           npt.NDArray[np.bool_]]: ...
 def influence_coefficients(n: int, dx: float, periodic: bool) -> npt.NDArray[np.float64]: ...
 def kernel_spectrum(n: int, dx: float, kernel: str) -> npt.NDArray[np.float64]: ...
 def westergaard_element_pressure(

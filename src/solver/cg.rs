@@ -125,6 +125,9 @@ pub(crate) struct Problem<'a> {
     pub scale: f64,
     pub tol: f64,
     pub max_iterations: usize,
+    /// Bound-constrained CG steps before the sweeps on a cold start; None: the line model's
+    /// choice by N ([`warm_up_iterations`]).
+    pub warm_up: Option<usize>,
 }
 
 /// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
@@ -153,7 +156,8 @@ pub(crate) fn solve<Op: Compliance>(
         coarse,
         w: work,
     };
-    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations);
+    let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
+    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, warm_up);
     let Context { coarse, w, .. } = context;
     w.coarse = coarse.zip(pair_sums).map(|(c, s)| (s.id(), c));
     outcome
@@ -192,7 +196,7 @@ struct SetSolve {
 impl<Op: Compliance> Context<'_, Op> {
     /// Warm start (from `initial`, else a few bounded-CG steps), the sweeps, and the bounded CG
     /// again if they do not settle.
-    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize) -> Outcome {
+    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, warm_up: usize) -> Outcome {
         let n = self.z.len();
         let target_sum = self.target_sum;
         let mut gap = vec![0.0; n];
@@ -210,7 +214,7 @@ impl<Op: Compliance> Context<'_, Op> {
             None => {
                 // A few bound-constrained CG steps from full contact shed most of the points that are
                 // not in contact far more cheaply than active-set sweeps would.
-                let warm_budget = warm_up_iterations(n).min(max_iterations);
+                let warm_budget = warm_up.min(max_iterations);
                 let start = self.bounded_cg(vec![mean_strain; n], warm_budget);
                 if start.converged {
                     return start;

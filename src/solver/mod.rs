@@ -349,8 +349,14 @@ impl ContactSolver {
             Method::ConjugateGradient => {
                 let pair_sums = Some(self.pair_sums.as_ref().expect("built for the CG method"));
                 let initial: Option<Vec<f64>> = initial_pressure.map(|q| q.iter().map(|&x| x / e_star).collect());
-                let problem =
-                    cg::Problem { z: &z, mean_strain: strain, scale, tol: self.options.tol, max_iterations: self.options.max_iterations };
+                let problem = cg::Problem {
+                    z: &z,
+                    mean_strain: strain,
+                    scale,
+                    tol: self.options.tol,
+                    max_iterations: self.options.max_iterations,
+                    warm_up: None,
+                };
                 cg::solve(op, pair_sums, &problem, initial.as_deref(), work)
             }
             Method::Direct => direct::solve(op, &z, strain, scale, self.options.tol)?,
