@@ -324,9 +324,7 @@ impl<Op: Compliance> Context<'_, Op> {
     /// else a new one; None without deflation or with fewer than two runs.
     fn coarse_space(&mut self, rough: bool, deflate: bool) -> Option<CoarseSpace> {
         let current = self.coarse.take();
-        let Some(pair_sums) = self.pair_sums.filter(|_| deflate) else {
-            return None;
-        };
+        let pair_sums = self.pair_sums.filter(|_| deflate)?;
         let islands = runs(&self.w.mask);
         if islands.len() < 2 {
             return None;
