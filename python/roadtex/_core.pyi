@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
-    "solve", "solve_many", "influence_coefficients", "kernel_spectrum", "westergaard_element_pressure",
+    "solve", "solve_many", "solve_surface", "solve_surface_many", "influence_coefficients", "kernel_spectrum",
+    "westergaard_element_pressure",
     "westergaard_contact_half_width", "flat_punch_element_pressure", "self_affine_profile", "von_meier", "clapp",
     "_panic_for_tests", "__version__",
 ]
