@@ -15,13 +15,9 @@ pub trait Compliance: Sync {
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
     /// out ~ C^-1 * gap on zero-mean input: the inverse of the periodic kernel (|k| E* / 2 like).
     fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
-    /// The coefficient for element offset d = i - j, -N < d < N: the dense matrix is
-    /// C[i][j] = kernel_at(i - j). Used by the dense solver and the coarse space of the CG solver.
-    fn kernel_at(&self, offset: isize) -> f64;
-
-    fn dense_entry(&self, i: usize, j: usize) -> f64 {
-        self.kernel_at(i as isize - j as isize)
-    }
+    /// The dense matrix entry C[i][j] (m per unit pressure / E*): the displacement at element i of
+    /// unit pressure on element j. Used by the dense solver.
+    fn dense_entry(&self, i: usize, j: usize) -> f64;
 
     /// out += weight * (column j of C): the displacement of pressure `weight` on element j alone.
     fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {
@@ -52,6 +48,13 @@ impl PeriodicCompliance {
     /// Eigenvalues lambda_q, q = 0..=N/2 (m per unit pressure / E*).
     pub fn spectrum(&self) -> &[f64] {
         &self.spectrum
+    }
+
+    /// The coefficient for element offset d = i - j, -N < d < N: C[i][j] = kernel_at(i - j). The
+    /// coarse space of the CG solver sums it over pairs of intervals.
+    pub fn kernel_at(&self, offset: isize) -> f64 {
+        let n = self.circulant.len() as isize;
+        self.coefficients()[offset.rem_euclid(n) as usize]
     }
 
     fn coefficients(&self) -> &[f64] {
@@ -90,9 +93,8 @@ impl Compliance for PeriodicCompliance {
         self.circulant.apply(&self.inverse_spectrum, gap, out, scratch);
     }
 
-    fn kernel_at(&self, offset: isize) -> f64 {
-        let n = self.circulant.len() as isize;
-        self.coefficients()[offset.rem_euclid(n) as usize]
+    fn dense_entry(&self, i: usize, j: usize) -> f64 {
+        self.kernel_at(i as isize - j as isize)
     }
 
     fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {
@@ -140,6 +142,11 @@ impl FiniteCompliance {
         let embedded_spectrum = embedded.spectrum_of(&column);
         Self { n, coefficients, embedded, embedded_spectrum, periodic: PeriodicCompliance::new(n, dx, KernelKind::Element) }
     }
+
+    /// The coefficient for element offset d = i - j, -N < d < N: C[i][j] = kernel_at(i - j).
+    pub fn kernel_at(&self, offset: isize) -> f64 {
+        self.coefficients[offset.unsigned_abs()]
+    }
 }
 
 impl Compliance for FiniteCompliance {
@@ -169,8 +176,8 @@ impl Compliance for FiniteCompliance {
         self.periodic.precondition(gap, out, &mut scratch.periodic);
     }
 
-    fn kernel_at(&self, offset: isize) -> f64 {
-        self.coefficients[offset.unsigned_abs()]
+    fn dense_entry(&self, i: usize, j: usize) -> f64 {
+        self.kernel_at(i as isize - j as isize)
     }
 
     fn add_column(&self, j: usize, weight: f64, out: &mut [f64]) {

@@ -2,8 +2,8 @@
 //!
 //! The numerical core (no Python here): influence coefficients of the elastic half-space
 //! ([`kernel`], [`compliance`]), the contact solvers ([`solver`]), the batch layer over many
-//! segments ([`batch`]) and closed-form reference solutions ([`reference`]). The pyo3 binding lives
-//! in `python` behind the `python` feature.
+//! segments ([`batch`]), areal contact on 3-D surfaces ([`surface`]) and closed-form reference
+//! solutions ([`reference`]). The pyo3 binding lives in `python` behind the `python` feature.
 //!
 //! ```
 //! use roadtex::solver::{solve, Material, SolverOptions};
@@ -22,6 +22,7 @@ pub mod kernel;
 pub mod reference;
 pub mod solver;
 pub mod special;
+pub mod surface;
 pub mod synthetic;
 
 #[cfg(feature = "python")]

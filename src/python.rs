@@ -6,8 +6,8 @@
 use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::ndarray::{Array2, Array3, Array4};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
@@ -18,6 +18,7 @@ use crate::error::{invalid, ContactError, Result};
 use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
 use crate::reference::{FlatPunch, Westergaard};
 use crate::solver::{ContactSolver, Material, Method, SolverOptions};
+use crate::surface::{solve_surface as solve_surface_core, solve_surfaces, Grid};
 use crate::synthetic::self_affine;
 
 /// How a call into the core failed.
@@ -186,6 +187,99 @@ fn solve_many<'py>(
     })
 }
 
+type SolvedSurface<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, usize, f64, bool);
+
+/// One surface (heights [iy, ix] in m). Returns (pressure Pa, envelope m, iterations, residual, converged).
+#[pyfunction]
+#[pyo3(signature = (heights, dx, dy, youngs_modulus, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations))]
+#[allow(clippy::too_many_arguments)]
+fn solve_surface<'py>(
+    py: Python<'py>,
+    heights: PyReadonlyArray2<'py, f64>,
+    dx: f64,
+    dy: f64,
+    youngs_modulus: f64,
+    poisson: f64,
+    mean_pressure: f64,
+    periodic: bool,
+    kernel: &str,
+    method: &str,
+    tol: f64,
+    max_iterations: usize,
+) -> PyResult<SolvedSurface<'py>> {
+    guarded(py, || {
+        let options = options(periodic, kernel, method, tol, max_iterations).map_err(|e| to_py_err(py, e))?;
+        let material = Material::new(youngs_modulus, poisson).map_err(|e| to_py_err(py, e))?;
+        let view = heights.as_array();
+        let (ny, nx) = view.dim();
+        let heights: Vec<f64> = view.iter().copied().collect();
+        let grid = Grid { ny, nx, dx, dy };
+        let solution = py.detach(|| solve_surface_core(&heights, grid, material, mean_pressure, options)).map_err(|e| to_py_err(py, e))?;
+        let as2 = |v: Vec<f64>| Array2::from_shape_vec((ny, nx), v).expect("one value per element").into_pyarray(py);
+        Ok((as2(solution.pressure), as2(solution.envelope), solution.iterations, solution.residual, solution.converged))
+    })
+}
+
+type SolvedSurfaces<'py> = (
+    Bound<'py, PyArray4<f64>>,
+    Bound<'py, PyArray4<f64>>,
+    Bound<'py, PyArray2<u64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<bool>>,
+);
+
+/// Every (tile, modulus) pair in parallel. Arrays are indexed [tile, modulus, ...].
+#[pyfunction]
+#[pyo3(signature = (tiles, dx, dy, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false))]
+#[allow(clippy::too_many_arguments)]
+fn solve_surface_many<'py>(
+    py: Python<'py>,
+    tiles: PyReadonlyArray3<'py, f64>,
+    dx: f64,
+    dy: f64,
+    youngs_moduli: PyReadonlyArray1<'py, f64>,
+    poisson: f64,
+    mean_pressure: f64,
+    periodic: bool,
+    kernel: &str,
+    method: &str,
+    tol: f64,
+    max_iterations: usize,
+    threads: Option<usize>,
+    warm_start: bool,
+) -> PyResult<SolvedSurfaces<'py>> {
+    guarded(py, || {
+        let options = options(periodic, kernel, method, tol, max_iterations).map_err(|e| to_py_err(py, e))?;
+        let view = tiles.as_array();
+        let (count, ny, nx) = view.dim();
+        let heights: Vec<f64> = view.iter().copied().collect();
+        let moduli = youngs_moduli.as_slice()?.to_vec();
+        let m = moduli.len();
+        let grid = Grid { ny, nx, dx, dy };
+        let solutions = py
+            .detach(|| solve_surfaces(&heights, grid, &moduli, poisson, mean_pressure, options, threads, warm_start))
+            .map_err(|e| to_py_err(py, e))?;
+        let mut pressure = Vec::with_capacity(count * m * ny * nx);
+        let mut envelope = Vec::with_capacity(count * m * ny * nx);
+        let (mut iterations, mut residual, mut converged) = (Vec::new(), Vec::new(), Vec::new());
+        for s in solutions {
+            pressure.extend_from_slice(&s.pressure);
+            envelope.extend_from_slice(&s.envelope);
+            iterations.push(s.iterations as u64);
+            residual.push(s.residual);
+            converged.push(s.converged);
+        }
+        let as4 = |v: Vec<f64>| Array4::from_shape_vec((count, m, ny, nx), v).expect("one surface per solution").into_pyarray(py);
+        Ok((
+            as4(pressure),
+            as4(envelope),
+            Array2::from_shape_vec((count, m), iterations).expect("one per solution").into_pyarray(py),
+            Array2::from_shape_vec((count, m), residual).expect("one per solution").into_pyarray(py),
+            Array2::from_shape_vec((count, m), converged).expect("one per solution").into_pyarray(py),
+        ))
+    })
+}
+
 /// Influence coefficients for unit E* (m per Pa times Pa): periodic C_(i-j mod N) or finite c_|i-j|.
 #[pyfunction]
 fn influence_coefficients(py: Python<'_>, n: usize, dx: f64, periodic: bool) -> PyResult<Bound<'_, PyArray1<f64>>> {
@@ -331,6 +425,8 @@ fn panic_for_tests(py: Python<'_>, message: String) -> PyResult<()> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve_many, m)?)?;
+    m.add_function(wrap_pyfunction!(solve_surface, m)?)?;
+    m.add_function(wrap_pyfunction!(solve_surface_many, m)?)?;
     m.add_function(wrap_pyfunction!(influence_coefficients, m)?)?;
     m.add_function(wrap_pyfunction!(kernel_spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(westergaard_element_pressure, m)?)?;

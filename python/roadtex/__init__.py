@@ -32,7 +32,20 @@ from roadtex.errors import (
                             RoadtexWarning,
                             SolverError,
 )
-from roadtex.models import ClappResult, ContactBatch, ContactResult, clapp, contact, contact_many, reference, von_meier
+from roadtex.models import (
+                            ClappResult,
+                            ContactBatch,
+                            ContactResult,
+                            SurfaceBatch,
+                            SurfaceResult,
+                            clapp,
+                            contact,
+                            contact_many,
+                            contact_surface,
+                            contact_surface_many,
+                            reference,
+                            von_meier,
+)
 from roadtex.profiles import MpdResult, Profile, Segments, mpd, pavements, read_profile, synthetic, synthetic_pavement, write_profile
 from roadtex.report import build_report
 from roadtex.spectra import (
@@ -55,6 +68,7 @@ __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "RoadtexWarning", "ImplausibleTextureWarning",
     "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
+    "SurfaceBatch", "SurfaceResult", "contact_surface", "contact_surface_many",
     "comparisons", "reference",
     "BandLevels", "band_levels", "band_regressions", "band_table", "level_differences", "octave_levels",
     "pressure_levels", "third_octave_levels", "time_frequency", "with_time_frequency",

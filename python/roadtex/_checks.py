@@ -18,7 +18,8 @@ def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f"{name} must be numeric: {exc}") from None
     if array.ndim != ndim:
-        expected = "a 1-D array (one profile)" if ndim == 1 else "a 2-D array (one segment per row)"
+        expected = {1: "a 1-D array (one profile)", 2: "a 2-D array (one segment per row, or a surface [iy, ix])",
+                    3: "a 3-D array (a stack of surfaces [tile, iy, ix])"}.get(ndim, f"a {ndim}-D array")
         raise InvalidInputError(f"{name} must be {expected}, got an array of shape {array.shape}")
     return np.ascontiguousarray(array)
 

@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
-    "solve", "solve_many", "influence_coefficients", "kernel_spectrum", "westergaard_element_pressure",
+    "solve", "solve_many", "solve_surface", "solve_surface_many", "influence_coefficients", "kernel_spectrum",
+    "westergaard_element_pressure",
     "westergaard_contact_half_width", "flat_punch_element_pressure", "self_affine_profile", "von_meier", "clapp",
     "_panic_for_tests", "__version__",
 ]
@@ -22,6 +23,16 @@ def solve(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], int, float, bool]: ...
 def solve_many(
     segments: npt.NDArray[np.float64], dx: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
+    mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
+    threads: int | None = None, warm_start: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
+           npt.NDArray[np.bool_]]: ...
+def solve_surface(
+    heights: npt.NDArray[np.float64], dx: float, dy: float, youngs_modulus: float, poisson: float,
+    mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], int, float, bool]: ...
+def solve_surface_many(
+    tiles: npt.NDArray[np.float64], dx: float, dy: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
     mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
     threads: int | None = None, warm_start: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],

@@ -125,13 +125,17 @@ pub(crate) struct Problem<'a> {
     pub scale: f64,
     pub tol: f64,
     pub max_iterations: usize,
+    /// Bound-constrained CG steps before the sweeps on a cold start; None: the line model's
+    /// choice by N ([`warm_up_iterations`]).
+    pub warm_up: Option<usize>,
 }
 
 /// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
-/// under another modulus) when given. `pair_sums` must hold the interval sums of `op`'s kernel.
+/// under another modulus) when given. `pair_sums` must hold the interval sums of `op`'s kernel;
+/// None solves without deflation (operators that are not 1-D Toeplitz, e.g. surfaces).
 pub(crate) fn solve<Op: Compliance>(
     op: &Op,
-    pair_sums: &PairSums,
+    pair_sums: Option<&PairSums>,
     problem: &Problem<'_>,
     initial: Option<&[f64]>,
     work: &mut Work<Op::Scratch>,
@@ -141,7 +145,7 @@ pub(crate) fn solve<Op: Compliance>(
     // The workspace reuse tag: a kept coarse space is only offered to the sweeps when it was built
     // from these very pair sums (the same kernel and dx; another solver of the same N has other
     // sums). The sweeps then reuse it only for the same set and dimension (CoarseSpace::is_same).
-    let coarse = work.coarse.take().filter(|(id, _)| *id == pair_sums.id()).map(|(_, c)| c);
+    let coarse = work.coarse.take().filter(|(id, _)| pair_sums.is_some_and(|s| *id == s.id())).map(|(_, c)| c);
     let mut context = Context {
         op,
         pair_sums,
@@ -152,9 +156,10 @@ pub(crate) fn solve<Op: Compliance>(
         coarse,
         w: work,
     };
-    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations);
+    let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
+    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, warm_up);
     let Context { coarse, w, .. } = context;
-    w.coarse = coarse.map(|c| (pair_sums.id(), c));
+    w.coarse = coarse.zip(pair_sums).map(|(c, s)| (s.id(), c));
     outcome
 }
 
@@ -162,7 +167,8 @@ pub(crate) fn solve<Op: Compliance>(
 /// options, the coarse space and the work vectors.
 struct Context<'a, Op: Compliance> {
     op: &'a Op,
-    pair_sums: &'a PairSums,
+    /// None: no deflation.
+    pair_sums: Option<&'a PairSums>,
     z: &'a [f64],
     /// sum p = N P / E*: every iterate carries the load exactly.
     target_sum: f64,
@@ -190,7 +196,7 @@ struct SetSolve {
 impl<Op: Compliance> Context<'_, Op> {
     /// Warm start (from `initial`, else a few bounded-CG steps), the sweeps, and the bounded CG
     /// again if they do not settle.
-    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize) -> Outcome {
+    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, warm_up: usize) -> Outcome {
         let n = self.z.len();
         let target_sum = self.target_sum;
         let mut gap = vec![0.0; n];
@@ -208,7 +214,7 @@ impl<Op: Compliance> Context<'_, Op> {
             None => {
                 // A few bound-constrained CG steps from full contact shed most of the points that are
                 // not in contact far more cheaply than active-set sweeps would.
-                let warm_budget = warm_up_iterations(n).min(max_iterations);
+                let warm_budget = warm_up.min(max_iterations);
                 let start = self.bounded_cg(vec![mean_strain; n], warm_budget);
                 if start.converged {
                     return start;
@@ -318,9 +324,7 @@ impl<Op: Compliance> Context<'_, Op> {
     /// else a new one; None without deflation or with fewer than two runs.
     fn coarse_space(&mut self, rough: bool, deflate: bool) -> Option<CoarseSpace> {
         let current = self.coarse.take();
-        if !deflate {
-            return None;
-        }
+        let pair_sums = self.pair_sums.filter(|_| deflate)?;
         let islands = runs(&self.w.mask);
         if islands.len() < 2 {
             return None;
@@ -349,7 +353,7 @@ impl<Op: Compliance> Context<'_, Op> {
         } else {
             None
         };
-        CoarseSpace::new(self.pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
+        CoarseSpace::new(pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
     }
 
     /// r = projected (z - C p) on the set: the gap the approach cannot close (C p fresh when

@@ -188,7 +188,7 @@ pub(crate) fn check_strain(strain: f64, sample_length: f64) -> Result<()> {
     Ok(())
 }
 
-fn check_magnitude(name: &str, value: f64, unit: &str) -> Result<()> {
+pub(crate) fn check_magnitude(name: &str, value: f64, unit: &str) -> Result<()> {
     if !(1.0 / MAGNITUDE_LIMIT..=MAGNITUDE_LIMIT).contains(&value) {
         return invalid(format!(
             "{name} = {value:e} {unit} is outside the {:e} to {MAGNITUDE_LIMIT:e} {unit} the solver handles in double precision: check the units",
@@ -200,7 +200,7 @@ fn check_magnitude(name: &str, value: f64, unit: &str) -> Result<()> {
 
 /// A last guard: a solution must be finite and carry the load. Inside the accepted magnitudes this
 /// always holds; it is checked so that no rounding accident can ever come back flagged converged.
-fn check_solution(solution: &ContactSolution, mean_pressure: f64) -> Result<()> {
+pub(crate) fn check_solution(solution: &ContactSolution, mean_pressure: f64) -> Result<()> {
     let n = solution.pressure.len() as f64;
     let balance = solution.pressure.iter().sum::<f64>() / (n * mean_pressure) - 1.0;
     let finite = solution.pressure.iter().chain(&solution.envelope).all(|v| v.is_finite()) && solution.residual.is_finite();
@@ -347,10 +347,16 @@ impl ContactSolver {
         let scale = height_scale(&z, strain, self.dx);
         let outcome = match self.options.method {
             Method::ConjugateGradient => {
-                let pair_sums = self.pair_sums.as_ref().expect("built for the CG method");
+                let pair_sums = Some(self.pair_sums.as_ref().expect("built for the CG method"));
                 let initial: Option<Vec<f64>> = initial_pressure.map(|q| q.iter().map(|&x| x / e_star).collect());
-                let problem =
-                    cg::Problem { z: &z, mean_strain: strain, scale, tol: self.options.tol, max_iterations: self.options.max_iterations };
+                let problem = cg::Problem {
+                    z: &z,
+                    mean_strain: strain,
+                    scale,
+                    tol: self.options.tol,
+                    max_iterations: self.options.max_iterations,
+                    warm_up: None,
+                };
                 cg::solve(op, pair_sums, &problem, initial.as_deref(), work)
             }
             Method::Direct => direct::solve(op, &z, strain, scale, self.options.tol)?,

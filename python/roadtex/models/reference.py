@@ -37,3 +37,43 @@ def westergaard_element_pressure(x: np.ndarray, dx: float, amplitude: float, wav
 def flat_punch_element_pressure(x: np.ndarray, dx: float, width: float, mean_pressure: float) -> np.ndarray:
     """Rigid flat punch of width L on a half-space, p = P L / (pi sqrt(x (L - x))), averaged per element (Pa)."""
     return _core.flat_punch_element_pressure(np.ascontiguousarray(x, dtype=np.float64), dx, width, mean_pressure)
+
+
+def bisinusoid_full_contact(x: np.ndarray, y: np.ndarray, amplitude: float, wavelength_x: float, wavelength_y: float,
+                            plane_strain_modulus: float, mean_pressure: float) -> np.ndarray:
+    """Pressure (Pa) on the surface z = A cos(2 pi x / Lx) cos(2 pi y / Ly) in full contact.
+
+    In full contact the rubber surface follows z, and each Fourier mode of the displacement is
+    2 / (E* |k|) times that of the pressure (Boussinesq), so p = P + E* |k| z / 2 with
+    |k| = 2 pi sqrt(1 / Lx^2 + 1 / Ly^2) (Johnson, Greenwood & Higginson 1985). It holds while
+    p >= 0 everywhere, i.e. for ``mean_pressure`` at least
+    :func:`bisinusoid_full_contact_pressure`.
+
+    Args:
+        x, y: positions (m), broadcast against each other (e.g. from ``np.meshgrid``).
+        amplitude: A (m); wavelength_x, wavelength_y: Lx, Ly (m).
+        plane_strain_modulus: E* (Pa); mean_pressure: P (Pa).
+    """
+    k = 2.0 * math.pi * math.hypot(1.0 / wavelength_x, 1.0 / wavelength_y)
+    z = amplitude * np.cos(2.0 * np.pi * np.asarray(x) / wavelength_x) * np.cos(2.0 * np.pi * np.asarray(y) / wavelength_y)
+    return mean_pressure + 0.5 * plane_strain_modulus * k * z
+
+
+def bisinusoid_full_contact_pressure(amplitude: float, wavelength_x: float, wavelength_y: float,
+                                     plane_strain_modulus: float) -> float:
+    """The least mean pressure (Pa) that keeps the bi-sinusoidal surface in full contact: E* |k| A / 2."""
+    return 0.5 * plane_strain_modulus * 2.0 * math.pi * math.hypot(1.0 / wavelength_x, 1.0 / wavelength_y) * amplitude
+
+
+def hertz_sphere(r: np.ndarray, radius: float, force: float, plane_strain_modulus: float) -> tuple[np.ndarray, float]:
+    """Hertz's sphere on a half-space: the pressure (Pa) at distances r (m) from the axis, and the
+    contact radius a (m) = (3 F R / (4 E*))^(1/3); p = 3 F / (2 pi a^2) sqrt(1 - r^2 / a^2) inside.
+
+    Args:
+        r: distances from the axis (m). radius: the sphere's radius R (m). force: F (N).
+        plane_strain_modulus: E* (Pa).
+    """
+    a = (3.0 * force * radius / (4.0 * plane_strain_modulus)) ** (1.0 / 3.0)
+    p0 = 3.0 * force / (2.0 * math.pi * a * a)
+    rr = np.asarray(r, dtype=np.float64)
+    return p0 * np.sqrt(np.clip(1.0 - (rr / a) ** 2, 0.0, None)), a

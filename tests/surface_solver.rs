@@ -1,0 +1,56 @@
+//! The surface solver: CG against the dense direct solve, the flat and stiff limits, and
+//! determinism of the parallel batch.
+
+use roadtex::surface::synthetic::self_affine_surface;
+use roadtex::surface::{solve_surface, solve_surfaces, Grid};
+use roadtex::{KernelKind, Material, Method, SolverOptions};
+
+fn rough(ny: usize, nx: usize, seed: u64) -> Vec<f64> {
+    let mut rng = roadtex::synthetic::SplitMix64::new(seed);
+    (0..ny * nx).map(|_| 1e-4 * (rng.next_f64() - 0.5)).collect()
+}
+
+#[test]
+fn cg_matches_direct_on_small_rough_surfaces() {
+    let rubber = Material::new(4e6, 0.5).unwrap();
+    for &(ny, nx) in &[(8usize, 8usize), (10, 14), (16, 16)] {
+        let grid = Grid { ny, nx, dx: 1e-3, dy: 0.7e-3 };
+        let z = rough(ny, nx, (ny * nx) as u64);
+        for &(periodic, kernel) in &[(true, KernelKind::Element), (true, KernelKind::Spectral), (false, KernelKind::Element)] {
+            let cg = SolverOptions { periodic, kernel, tol: 1e-12, ..Default::default() };
+            let direct = SolverOptions { method: Method::Direct, ..cg };
+            let a = solve_surface(&z, grid, rubber, 2e5, cg).unwrap();
+            let b = solve_surface(&z, grid, rubber, 2e5, direct).unwrap();
+            assert!(a.converged && b.converged);
+            let worst = a.pressure.iter().zip(&b.pressure).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-9 * 2e5, "{ny}x{nx} periodic={periodic} {kernel:?}: {worst}");
+        }
+    }
+}
+
+#[test]
+fn flat_surface_and_stiff_rubber_limits() {
+    let grid = Grid { ny: 8, nx: 12, dx: 1e-3, dy: 2e-3 };
+    let flat = vec![0.05; grid.len()];
+    let sol = solve_surface(&flat, grid, Material::new(2.5e6, 0.5).unwrap(), 2e5, SolverOptions::default()).unwrap();
+    assert!(sol.pressure.iter().all(|&p| (p - 2e5).abs() < 1e-9 * 2e5));
+    let z = rough(8, 12, 3);
+    let top = (0..z.len()).max_by(|&i, &j| z[i].total_cmp(&z[j])).unwrap();
+    let sol = solve_surface(&z, grid, Material::new(1e13, 0.5).unwrap(), 2e5, SolverOptions::default()).unwrap();
+    assert_eq!(sol.pressure.iter().filter(|&&p| p > 0.0).count(), 1);
+    assert!((sol.pressure[top] / (2e5 * z.len() as f64) - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn batch_is_bitwise_identical_whatever_the_thread_count() {
+    let grid = Grid { ny: 64, nx: 64, dx: 1.0 / 64.0, dy: 1.0 / 64.0 };
+    let tiles: Vec<f64> = (0..3).flat_map(|s| self_affine_surface(64, 1.0, 0.8, 0.1, s)).collect();
+    let options = SolverOptions { tol: 1e-8, ..Default::default() };
+    let moduli = [0.75, 1.5];
+    let one = solve_surfaces(&tiles, grid, &moduli, 0.5, 0.01, options, Some(1), false).unwrap();
+    let two = solve_surfaces(&tiles, grid, &moduli, 0.5, 0.01, options, Some(2), false).unwrap();
+    assert_eq!(one, two);
+    assert!(one.iter().all(|s| s.converged));
+    let fraction = one[0].pressure.iter().filter(|&&p| p > 0.0).count() as f64 / grid.len() as f64;
+    assert!((0.1..0.35).contains(&fraction), "{fraction}");
+}
