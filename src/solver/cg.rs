@@ -113,6 +113,10 @@ impl<S> Work<S> {
     pub fn len(&self) -> usize {
         self.mask.len()
     }
+
+    pub fn scratch(&self) -> &S {
+        &self.scratch
+    }
 }
 
 /// One contact problem in the solver's units, and when to stop.

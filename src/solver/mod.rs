@@ -235,6 +235,18 @@ pub struct Workspace {
     inner: WorkspaceInner,
 }
 
+impl Workspace {
+    /// FFT pairs (circulant products, one forward and one inverse real FFT each) the solves in
+    /// this workspace have applied since it was (re)allocated: the cost counter of the benchmarks.
+    pub fn fft_pairs(&self) -> u64 {
+        match &self.inner {
+            WorkspaceInner::Empty => 0,
+            WorkspaceInner::Periodic(w) => PeriodicCompliance::fft_pairs(w.scratch()),
+            WorkspaceInner::Finite(w) => FiniteCompliance::fft_pairs(w.scratch()),
+        }
+    }
+}
+
 #[derive(Default)]
 enum WorkspaceInner {
     #[default]
