@@ -193,14 +193,7 @@ impl CoarseSpace {
                 e_row[b] = g_row[b] - ra * weights[b] - wa * row[b] + total * wa * weights[b];
             }
         }
-        let llt = MatRef::from_column_major_slice(&e, columns, columns).llt(Side::Lower).ok()?;
-        let l = llt.L();
-        let mut factor = e;
-        for a in 0..columns {
-            for b in 0..=a {
-                factor[a * columns + b] = l[(a, b)];
-            }
-        }
+        let factor = cholesky(e, columns)?;
         let mut bounds = bounds;
         bounds.truncate(columns + 1);
         Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete })
@@ -261,7 +254,7 @@ impl CoarseSpace {
 }
 
 /// Dot product with four interleaved partial sums (vectorises; fixed order, so deterministic).
-fn dot4(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot4(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut acc = [0.0; 4];
@@ -274,6 +267,40 @@ fn dot4(a: &[f64], b: &[f64]) -> f64 {
         acc[3] += x[3] * y[3];
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// Below this dimension E is factored here (a plain row-by-row Cholesky on [`dot4`]); above it by
+/// faer, whose blocked factorisation wins from there on but costs more than the whole O(dim^3 / 6)
+/// work for the coarse spaces of N = 1,000 segments (at most 62 vectors).
+const SMALL_FACTOR: usize = 128;
+
+/// The lower Cholesky factor of the symmetric `e` (row-major, dim x dim) in place of it, row-major
+/// with the upper triangle left as it was; None if `e` is not numerically positive definite.
+fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
+    if dim >= SMALL_FACTOR {
+        let llt = MatRef::from_column_major_slice(&e, dim, dim).llt(Side::Lower).ok()?;
+        let l = llt.L();
+        for a in 0..dim {
+            for b in 0..=a {
+                e[a * dim + b] = l[(a, b)];
+            }
+        }
+        return Some(e);
+    }
+    for i in 0..dim {
+        let (done, rest) = e.split_at_mut(i * dim);
+        let row = &mut rest[..dim];
+        for j in 0..i {
+            let lj = &done[j * dim..j * dim + j + 1];
+            row[j] = (row[j] - dot4(&row[..j], &lj[..j])) / lj[j];
+        }
+        let pivot = row[i] - dot4(&row[..i], &row[..i]);
+        if !pivot.is_finite() || pivot <= 0.0 {
+            return None;
+        }
+        row[i] = pivot.sqrt();
+    }
+    Some(e)
 }
 
 /// y <- (L L^T)^-1 y.
@@ -328,6 +355,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn small_cholesky_factors_and_refuses_indefinite_matrices() {
+        for dim in [1usize, 2, 5, 37, 127, 128, 200] {
+            // A well-conditioned SPD matrix: a diagonal plus a smooth kernel.
+            let e: Vec<f64> = (0..dim * dim)
+                .map(|k| (k / dim, k % dim))
+                .map(|(a, b)| 1.0 / (1.0 + (a as f64 - b as f64).abs()) + (a == b) as u8 as f64)
+                .collect();
+            let l = cholesky(e.clone(), dim).expect("positive definite");
+            for a in 0..dim {
+                for b in 0..=a {
+                    let llt: f64 = (0..=b).map(|k| l[a * dim + k] * l[b * dim + k]).sum();
+                    assert!((llt - e[a * dim + b]).abs() < 1e-12, "dim={dim} ({a}, {b})");
+                }
+            }
+            let mut y: Vec<f64> = (0..dim).map(|k| (k as f64).sin()).collect();
+            let rhs = y.clone();
+            cholesky_solve(&l, dim, &mut y);
+            for a in 0..dim {
+                let ey: f64 = (0..dim).map(|b| e[a * dim + b] * y[b]).sum();
+                assert!((ey - rhs[a]).abs() < 1e-10, "dim={dim} row {a}");
+            }
+        }
+        assert!(cholesky(vec![1.0, 2.0, 2.0, 1.0], 2).is_none());
     }
 
     #[test]
