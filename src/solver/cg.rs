@@ -492,10 +492,10 @@ impl<Op: Compliance> Context<'_, Op> {
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= self.tol };
             }
             let mut free_count = 0;
-            for i in 0..n {
-                free[i] = p[i] > 0.0 || gap[i] < 0.0;
-                free_count += free[i] as usize;
-                w.residual[i] = if free[i] { -gap[i] } else { 0.0 };
+            for (((f, r), &pi), &g) in free.iter_mut().zip(w.residual.iter_mut()).zip(&p).zip(&gap) {
+                *f = pi > 0.0 || g < 0.0;
+                free_count += *f as usize;
+                *r = if *f { -g } else { 0.0 };
             }
             project_zero_sum(&mut w.residual, &free, free_count);
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
@@ -506,9 +506,10 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             // `direction` and `previous` are read only after this call wrote them (iterations > 0).
             let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-            for i in 0..n {
-                let previous = if iterations == 0 { 0.0 } else { w.direction[i] };
-                w.direction[i] = if free[i] { w.preconditioned[i] + beta * previous } else { 0.0 };
+            let first = iterations == 0;
+            for ((d, &y), &f) in w.direction.iter_mut().zip(&w.preconditioned).zip(&free) {
+                let previous = if first { 0.0 } else { *d };
+                *d = if f { y + beta * previous } else { 0.0 };
             }
             project_zero_sum(&mut w.direction, &free, free_count);
             w.previous.copy_from_slice(&w.preconditioned);
@@ -521,25 +522,28 @@ impl<Op: Compliance> Context<'_, Op> {
             // C p follows p: + alpha C d, then a column per clipped point (a fresh product instead
             // when more than a few are clipped), then the load rescaling.
             clipped_at.clear();
-            let mut total = 0.0;
-            for i in 0..n {
-                p[i] += alpha * w.direction[i];
-                w.displacement[i] += alpha * w.applied_direction[i];
-                if p[i] < 0.0 {
-                    if clipped_at.len() <= MAX_COLUMN_UPDATES {
-                        clipped_at.push((i, -p[i]));
-                    }
-                    p[i] = 0.0;
-                }
-                total += p[i];
+            let mut clipped = 0usize;
+            for ((pi, ui), (&d, &a)) in p.iter_mut().zip(w.displacement.iter_mut()).zip(w.direction.iter().zip(&w.applied_direction)) {
+                *pi += alpha * d;
+                *ui += alpha * a;
+                clipped += (*pi < 0.0) as usize;
             }
-            tracked = clipped_at.len() <= MAX_COLUMN_UPDATES;
+            if clipped > 0 {
+                for (i, pi) in p.iter_mut().enumerate().filter(|(_, pi)| **pi < 0.0) {
+                    if clipped <= MAX_COLUMN_UPDATES {
+                        clipped_at.push((i, -*pi));
+                    }
+                    *pi = 0.0;
+                }
+            }
+            let total = if clipped > 0 { sum4(&p) } else { 0.0 };
+            tracked = clipped <= MAX_COLUMN_UPDATES;
             if tracked {
                 for &(j, delta) in &clipped_at {
                     op.add_column(j, delta, &mut w.displacement);
                 }
             }
-            if !clipped_at.is_empty() {
+            if clipped > 0 {
                 let factor = self.target_sum / total;
                 p.iter_mut().for_each(|pi| *pi *= factor);
                 w.displacement.iter_mut().for_each(|u| *u *= factor);
@@ -627,6 +631,18 @@ fn masked_sum(v: &[f64], mask: &[bool]) -> f64 {
     for (x, m) in v4.zip(m4) {
         for k in 0..4 {
             acc[k] += if m[k] { x[k] } else { 0.0 };
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+fn sum4(v: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let v4 = v.chunks_exact(4);
+    let tail: f64 = v4.remainder().iter().sum();
+    for x in v4 {
+        for k in 0..4 {
+            acc[k] += x[k];
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
