@@ -22,7 +22,8 @@
 //! worst open gap on the contact set and the worst penetration off it, relative to the profile
 //! height. Load balance holds to rounding at every step.
 
-use super::deflation::{dot4, runs, CoarseSpace, PairSums};
+use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
+use super::reduce::{bounded_gap, dot, mask_and_project, masked_sum, max_abs, project_zero_sum, sum4};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
@@ -154,6 +155,7 @@ pub(crate) fn solve<Op: Compliance>(
         scale: problem.scale,
         tol: problem.tol,
         coarse,
+        groups: None,
         w: work,
     };
     let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations);
@@ -174,6 +176,8 @@ struct Context<'a, Op: Compliance> {
     tol: f64,
     /// The coarse space of the current contact set (None: no deflation).
     coarse: Option<CoarseSpace>,
+    /// The group matrix of this solve's last grouped coarse space, see [`GroupCache`].
+    groups: Option<GroupCache>,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -358,7 +362,7 @@ impl<Op: Compliance> Context<'_, Op> {
         } else {
             None
         };
-        CoarseSpace::new(self.pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
+        CoarseSpace::new(self.pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS, &mut self.groups)
     }
 
     /// r = projected (z - C p) on the set: the gap the approach cannot close (C p fresh when
@@ -554,28 +558,6 @@ impl<Op: Compliance> Context<'_, Op> {
     }
 }
 
-/// The bounded CG's gap for displacement `u` = C p (the approach that makes it zero-mean where
-/// p > 0) into `gap`; returns the residual.
-fn bounded_gap(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64], scale: f64) -> f64 {
-    for ((g, &ui), &zi) in gap.iter_mut().zip(u).zip(z) {
-        *g = ui - zi;
-    }
-    let (mut acc, mut count) = ([0.0; 4], 0usize);
-    let (g4, p4) = (gap.chunks_exact(4), p.chunks_exact(4));
-    let tail: f64 = g4.remainder().iter().zip(p4.remainder()).map(|(&g, &pi)| if pi > 0.0 { g } else { 0.0 }).sum();
-    count += p4.remainder().iter().filter(|&&pi| pi > 0.0).count();
-    for (g, pi) in g4.zip(p4) {
-        for k in 0..4 {
-            let on = pi[k] > 0.0;
-            acc[k] += if on { g[k] } else { 0.0 };
-            count += on as usize;
-        }
-    }
-    let approach = -((acc[0] + acc[1]) + (acc[2] + acc[3]) + tail) / count as f64;
-    gap.iter_mut().for_each(|g| *g += approach);
-    residual(p, gap, scale)
-}
-
 /// The gap for displacement `u` = C p, with the rigid approach that makes it zero-mean on `mask`,
 /// and the next trial set in `mask` (points with p <= 0 leave, penetrating points join); returns
 /// whether the set changed.
@@ -594,72 +576,4 @@ fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64
         mask[i] = next;
     }
     changed
-}
-
-fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {
-    if count == 0 {
-        return;
-    }
-    let mean = masked_sum(v, mask) / count as f64;
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if m {
-            *x -= mean;
-        }
-    }
-}
-
-fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if !m {
-            *x = 0.0;
-        }
-    }
-    project_zero_sum(v, mask, count);
-}
-
-// The reductions below keep four partial sums (or maxima) in a fixed order: they vectorise, where
-// one running sum is a chain of dependent additions (at N = 1,000 eight such passes cost as much as
-// two FFT pairs), and they are deterministic.
-
-/// Sum of v over the points of `mask`.
-fn masked_sum(v: &[f64], mask: &[bool]) -> f64 {
-    let n = v.len().min(mask.len());
-    let (v, mask) = (&v[..n], &mask[..n]);
-    let mut acc = [0.0; 4];
-    let (v4, m4) = (v.chunks_exact(4), mask.chunks_exact(4));
-    let tail: f64 = v4.remainder().iter().zip(m4.remainder()).map(|(&x, &m)| if m { x } else { 0.0 }).sum();
-    for (x, m) in v4.zip(m4) {
-        for k in 0..4 {
-            acc[k] += if m[k] { x[k] } else { 0.0 };
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
-fn sum4(v: &[f64]) -> f64 {
-    let mut acc = [0.0; 4];
-    let v4 = v.chunks_exact(4);
-    let tail: f64 = v4.remainder().iter().sum();
-    for x in v4 {
-        for k in 0..4 {
-            acc[k] += x[k];
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    dot4(a, b)
-}
-
-fn max_abs(v: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 4];
-    let v4 = v.chunks_exact(4);
-    let tail = v4.remainder().iter().fold(0.0f64, |m, &x| m.max(x.abs()));
-    for x in v4 {
-        for k in 0..4 {
-            acc[k] = acc[k].max(x[k].abs());
-        }
-    }
-    acc[0].max(acc[1]).max(acc[2].max(acc[3])).max(tail)
 }

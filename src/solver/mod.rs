@@ -13,6 +13,7 @@
 pub mod cg;
 mod deflation;
 pub mod direct;
+mod reduce;
 
 use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance};
 use crate::error::{invalid, Result};
