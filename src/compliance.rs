@@ -11,6 +11,9 @@ pub trait Compliance: Sync {
         self.len() == 0
     }
     fn scratch(&self) -> Self::Scratch;
+    /// FFT pairs (circulant products) applied so far with `scratch`, a cost counter; the finite
+    /// model's products of size 2N count as one each.
+    fn fft_pairs(scratch: &Self::Scratch) -> u64;
     /// out = C * pressure (displacement up to the rigid constant).
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
     /// out ~ C^-1 * gap on zero-mean input: the inverse of the periodic kernel (|k| E* / 2 like).
@@ -83,6 +86,10 @@ impl Compliance for PeriodicCompliance {
 
     fn scratch(&self) -> CirculantScratch {
         self.circulant.scratch()
+    }
+
+    fn fft_pairs(scratch: &CirculantScratch) -> u64 {
+        scratch.pairs()
     }
 
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut CirculantScratch) {
@@ -163,6 +170,10 @@ impl Compliance for FiniteCompliance {
             padded_out: vec![0.0; 2 * self.n],
             periodic: self.periodic.scratch(),
         }
+    }
+
+    fn fft_pairs(scratch: &FiniteScratch) -> u64 {
+        scratch.embedded.pairs() + scratch.periodic.pairs()
     }
 
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut FiniteScratch) {

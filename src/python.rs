@@ -15,7 +15,7 @@ use crate::batch::{solve_many as solve_many_core, Segments};
 use crate::clapp::{clapp as clapp_core, ClappOptions};
 use crate::envelope::von_meier as von_meier_core;
 use crate::error::{invalid, ContactError, Result};
-use crate::kernel::{finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
+use crate::kernel::{fast_len, finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
 use crate::reference::{FlatPunch, Westergaard};
 use crate::solver::{ContactSolver, Material, Method, SolverOptions};
 use crate::surface::{solve_surface as solve_surface_core, solve_surfaces, Grid};
@@ -299,6 +299,17 @@ fn check_grid(n: usize, dx: f64) -> Result<()> {
     Ok(())
 }
 
+/// The smallest 5-smooth length (2^a 3^b 5^c points) at or above n, where realfft is fastest.
+#[pyfunction]
+fn fft_friendly_length(py: Python<'_>, n: usize) -> PyResult<usize> {
+    guarded(py, || {
+        if n > 1 << 40 {
+            return Err(to_py_err(py, ContactError::InvalidInput(format!("n = {n} points is beyond any profile this solves"))));
+        }
+        Ok(fast_len(n))
+    })
+}
+
 /// Eigenvalues lambda_q, q = 0..N/2, of the periodic kernel for unit E*.
 #[pyfunction]
 fn kernel_spectrum<'py>(py: Python<'py>, n: usize, dx: f64, kernel: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -429,6 +440,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve_surface_many, m)?)?;
     m.add_function(wrap_pyfunction!(influence_coefficients, m)?)?;
     m.add_function(wrap_pyfunction!(kernel_spectrum, m)?)?;
+    m.add_function(wrap_pyfunction!(fft_friendly_length, m)?)?;
     m.add_function(wrap_pyfunction!(westergaard_element_pressure, m)?)?;
     m.add_function(wrap_pyfunction!(westergaard_contact_half_width, m)?)?;
     m.add_function(wrap_pyfunction!(flat_punch_element_pressure, m)?)?;

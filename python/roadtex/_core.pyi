@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 __all__ = [
     "solve", "solve_many", "solve_surface", "solve_surface_many", "influence_coefficients", "kernel_spectrum",
-    "westergaard_element_pressure",
+    "fft_friendly_length", "westergaard_element_pressure",
     "westergaard_contact_half_width", "flat_punch_element_pressure", "self_affine_profile", "von_meier", "clapp",
     "_panic_for_tests", "__version__",
 ]
@@ -39,6 +39,7 @@ def solve_surface_many(
            npt.NDArray[np.bool_]]: ...
 def influence_coefficients(n: int, dx: float, periodic: bool) -> npt.NDArray[np.float64]: ...
 def kernel_spectrum(n: int, dx: float, kernel: str) -> npt.NDArray[np.float64]: ...
+def fft_friendly_length(n: int) -> int: ...
 def westergaard_element_pressure(
     x: npt.NDArray[np.float64], dx: float, amplitude: float, wavelength: float, plane_strain_modulus: float,
     mean_pressure: float,

@@ -22,7 +22,8 @@
 //! worst open gap on the contact set and the worst penetration off it, relative to the profile
 //! height. Load balance holds to rounding at every step.
 
-use super::deflation::{runs, CoarseSpace, PairSums};
+use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
+use super::reduce::{bounded_gap, dot, mask_and_project, masked_sum, max_abs, project_zero_sum, sum4};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
@@ -113,6 +114,10 @@ impl<S> Work<S> {
     pub fn len(&self) -> usize {
         self.mask.len()
     }
+
+    pub fn scratch(&self) -> &S {
+        &self.scratch
+    }
 }
 
 /// One contact problem in the solver's units, and when to stop.
@@ -154,6 +159,7 @@ pub(crate) fn solve<Op: Compliance>(
         scale: problem.scale,
         tol: problem.tol,
         coarse,
+        groups: None,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -176,6 +182,8 @@ struct Context<'a, Op: Compliance> {
     tol: f64,
     /// The coarse space of the current contact set (None: no deflation).
     coarse: Option<CoarseSpace>,
+    /// The group matrix of this solve's last grouped coarse space, see [`GroupCache`].
+    groups: Option<GroupCache>,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -252,6 +260,8 @@ impl<Op: Compliance> Context<'_, Op> {
         let mut deflate = true;
         // Whether w.displacement holds C p for the current p (tracked, not a fresh product).
         let mut known = false;
+        // Whether that C p is a fresh product (the settled-set check just made one).
+        let mut fresh = false;
         let mut leaving: Vec<(usize, f64)> = Vec::new();
         for _sweep in 0..MAX_SWEEPS {
             let budget = max_iterations.saturating_sub(iterations);
@@ -259,8 +269,10 @@ impl<Op: Compliance> Context<'_, Op> {
                 break;
             }
             let abs_tol = 0.25 * self.tol * self.scale;
-            // A precise solve starts from a fresh product, so that its stopping test is honest.
-            let how = SetSolve { abs_tol, rough, deflate, displacement_known: known && rough, max_iterations: budget };
+            // A precise solve starts from a fresh product, so that its stopping test is honest (when
+            // the settled-set check has just made one, that one: the same product, bitwise).
+            let how = SetSolve { abs_tol, rough, deflate, displacement_known: known && (rough || fresh), max_iterations: budget };
+            fresh = false;
             iterations += self.solve_on_set(p, how);
 
             // Set update from the tracked C p; a set that looks settled is checked on a fresh one.
@@ -276,6 +288,7 @@ impl<Op: Compliance> Context<'_, Op> {
                     return Ok((iterations, res));
                 }
                 known = true;
+                fresh = true;
                 if !rough {
                     // A precise solve on a settled set missed tol. The coarse matrix is assembled
                     // from second prefix sums of the kernel (PairSums), differences of large
@@ -353,7 +366,7 @@ impl<Op: Compliance> Context<'_, Op> {
         } else {
             None
         };
-        CoarseSpace::new(pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS)
+        CoarseSpace::new(pair_sums, islands, &w.mask, displacement_of_set, dim, MAX_RUN_PAIRS, &mut self.groups)
     }
 
     /// r = projected (z - C p) on the set: the gap the approach cannot close (C p fresh when
@@ -363,8 +376,8 @@ impl<Op: Compliance> Context<'_, Op> {
         if fresh {
             self.op.displacement(p, &mut w.displacement, &mut w.scratch);
         }
-        for i in 0..p.len() {
-            w.residual[i] = if w.mask[i] { self.z[i] - w.displacement[i] } else { 0.0 };
+        for ((r, &m), (&z, &u)) in w.residual.iter_mut().zip(&w.mask).zip(self.z.iter().zip(&w.displacement)) {
+            *r = if m { z - u } else { 0.0 };
         }
         project_zero_sum(&mut w.residual, &w.mask, count);
     }
@@ -407,7 +420,7 @@ impl<Op: Compliance> Context<'_, Op> {
                 op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
                 // restrict reads C y on the coarse space's runs only (all inside A) and takes its
                 // sum over the whole set A as given: sum over the mask, not over all N points.
-                let total: f64 = (0..p.len()).filter(|&i| w.mask[i]).map(|i| w.applied[i]).sum();
+                let total = masked_sum(&w.applied, &w.mask);
                 coarse.restrict(&w.applied, total, &mut w.coarse_rhs);
                 coarse.solve(&mut w.coarse_rhs);
                 coarse.add_prolonged(&w.coarse_rhs, -1.0, &w.mask, &mut w.preconditioned);
@@ -433,18 +446,20 @@ impl<Op: Compliance> Context<'_, Op> {
             w.previous.copy_from_slice(&w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let mean = (0..p.len()).filter(|&i| w.mask[i]).map(|i| w.applied_direction[i]).sum::<f64>() / count as f64;
+            let mean = masked_sum(&w.applied_direction, &w.mask) / count as f64;
             let curvature = dot(&w.direction, &w.applied_direction);
             if !(curvature > 0.0) {
                 break;
             }
             let alpha = rho / curvature;
-            for i in 0..p.len() {
-                p[i] += alpha * w.direction[i];
-                w.displacement[i] += alpha * w.applied_direction[i];
-                if w.mask[i] {
-                    w.residual[i] -= alpha * (w.applied_direction[i] - mean);
-                }
+            // One pass over plain slices (no bounds checks, no reloads): it vectorises. Off the set
+            // the residual is zero and stays so.
+            let (direction, applied) = (&w.direction[..], &w.applied_direction[..]);
+            let moving = p.iter_mut().zip(w.displacement.iter_mut()).zip(w.residual.iter_mut());
+            for (((pi, ui), ri), ((&d, &a), &m)) in moving.zip(direction.iter().zip(applied).zip(&w.mask)) {
+                *pi += alpha * d;
+                *ui += alpha * a;
+                *ri -= if m { alpha * (a - mean) } else { 0.0 };
             }
             rho_before = rho;
             iterations += 1;
@@ -465,22 +480,30 @@ impl<Op: Compliance> Context<'_, Op> {
         let mut free = vec![false; n];
         let mut rho_before = 0.0;
         let mut iterations = 0;
+        // Whether w.displacement holds C p tracked through the updates (else a fresh product is due).
+        let mut tracked = false;
+        let mut clipped_at: Vec<(usize, f64)> = Vec::new();
         loop {
-            op.displacement(&p, &mut w.displacement, &mut w.scratch);
-            let (sum, count) = (0..n).filter(|&i| p[i] > 0.0).fold((0.0, 0usize), |(s, c), i| (s + w.displacement[i] - z[i], c + 1));
-            let approach = -sum / count as f64;
-            for i in 0..n {
-                gap[i] = w.displacement[i] + approach - z[i];
+            let mut fresh = !tracked;
+            if fresh {
+                op.displacement(&p, &mut w.displacement, &mut w.scratch);
             }
-            let res = residual(&p, &gap, self.scale);
+            let mut res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
+            if (res <= self.tol || iterations >= max_iterations) && !fresh {
+                // The stopping test and what is returned stand on a fresh product.
+                op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
+                fresh = true;
+            }
             if res <= self.tol || iterations >= max_iterations {
+                debug_assert!(fresh);
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= self.tol };
             }
             let mut free_count = 0;
-            for i in 0..n {
-                free[i] = p[i] > 0.0 || gap[i] < 0.0;
-                free_count += free[i] as usize;
-                w.residual[i] = if free[i] { -gap[i] } else { 0.0 };
+            for (((f, r), &pi), &g) in free.iter_mut().zip(w.residual.iter_mut()).zip(&p).zip(&gap) {
+                *f = pi > 0.0 || g < 0.0;
+                free_count += *f as usize;
+                *r = if *f { -g } else { 0.0 };
             }
             project_zero_sum(&mut w.residual, &free, free_count);
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
@@ -491,9 +514,10 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             // `direction` and `previous` are read only after this call wrote them (iterations > 0).
             let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-            for i in 0..n {
-                let previous = if iterations == 0 { 0.0 } else { w.direction[i] };
-                w.direction[i] = if free[i] { w.preconditioned[i] + beta * previous } else { 0.0 };
+            let first = iterations == 0;
+            for ((d, &y), &f) in w.direction.iter_mut().zip(&w.preconditioned).zip(&free) {
+                let previous = if first { 0.0 } else { *d };
+                *d = if f { y + beta * previous } else { 0.0 };
             }
             project_zero_sum(&mut w.direction, &free, free_count);
             w.previous.copy_from_slice(&w.preconditioned);
@@ -503,18 +527,34 @@ impl<Op: Compliance> Context<'_, Op> {
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
             }
             let alpha = dot(&w.residual, &w.direction) / curvature;
-            let mut clipped = false;
-            let mut total = 0.0;
-            for (pi, &di) in p.iter_mut().zip(&w.direction) {
-                *pi += alpha * di;
-                if *pi < 0.0 {
-                    *pi = 0.0;
-                    clipped = true;
-                }
-                total += *pi;
+            // C p follows p: + alpha C d, then a column per clipped point (a fresh product instead
+            // when more than a few are clipped), then the load rescaling.
+            clipped_at.clear();
+            let mut clipped = 0usize;
+            for ((pi, ui), (&d, &a)) in p.iter_mut().zip(w.displacement.iter_mut()).zip(w.direction.iter().zip(&w.applied_direction)) {
+                *pi += alpha * d;
+                *ui += alpha * a;
+                clipped += (*pi < 0.0) as usize;
             }
-            if clipped {
-                p.iter_mut().for_each(|pi| *pi *= self.target_sum / total);
+            if clipped > 0 {
+                for (i, pi) in p.iter_mut().enumerate().filter(|(_, pi)| **pi < 0.0) {
+                    if clipped <= MAX_COLUMN_UPDATES {
+                        clipped_at.push((i, -*pi));
+                    }
+                    *pi = 0.0;
+                }
+            }
+            let total = if clipped > 0 { sum4(&p) } else { 0.0 };
+            tracked = clipped <= MAX_COLUMN_UPDATES;
+            if tracked {
+                for &(j, delta) in &clipped_at {
+                    op.add_column(j, delta, &mut w.displacement);
+                }
+            }
+            if clipped > 0 {
+                let factor = self.target_sum / total;
+                p.iter_mut().for_each(|pi| *pi *= factor);
+                w.displacement.iter_mut().for_each(|u| *u *= factor);
             }
             rho_before = rho;
             iterations += 1;
@@ -527,11 +567,12 @@ impl<Op: Compliance> Context<'_, Op> {
 /// whether the set changed.
 fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> bool {
     let n = z.len();
-    let (sum, count) = (0..n).filter(|&i| mask[i]).fold((0.0, 0usize), |(s, c), i| (s + u[i] - z[i], c + 1));
-    let approach = -sum / count as f64;
     for i in 0..n {
-        gap[i] = u[i] + approach - z[i];
+        gap[i] = u[i] - z[i];
     }
+    let count = mask.iter().filter(|&&m| m).count();
+    let approach = -masked_sum(gap, mask) / count as f64;
+    gap.iter_mut().for_each(|g| *g += approach);
     let mut changed = false;
     for i in 0..n {
         let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
@@ -539,33 +580,4 @@ fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64
         mask[i] = next;
     }
     changed
-}
-
-fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {
-    if count == 0 {
-        return;
-    }
-    let mean = v.iter().zip(mask).filter(|(_, &m)| m).map(|(x, _)| x).sum::<f64>() / count as f64;
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if m {
-            *x -= mean;
-        }
-    }
-}
-
-fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if !m {
-            *x = 0.0;
-        }
-    }
-    project_zero_sum(v, mask, count);
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn max_abs(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, &x| m.max(x.abs()))
 }

@@ -13,6 +13,8 @@
 
 use faer::{MatRef, Side};
 
+use super::reduce::dot4;
+
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
     /// Unique per instance: a coarse space kept in a workspace is reused only with the sums it
@@ -56,6 +58,37 @@ impl PairSums {
         self.second[(k + self.n as isize - 1) as usize]
     }
 
+    /// Sum of c(i - l) over i in the run `r` and l in the runs `others` (all inside [0, N]).
+    fn sum_over(&self, (a, b): (usize, usize), others: &[(usize, usize)]) -> f64 {
+        // block((a, b), (c, d)) = H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), and
+        // H(k) sits at k + N - 1: with the run ends shifted by N, every index is a plain sum.
+        let h = &self.second[..];
+        let (hi, lo) = (b + self.n, a + self.n);
+        others
+            .iter()
+            .map(|&(c, d)| {
+                // SAFETY: 0 <= a <= b <= N and 0 <= c <= d <= N (asserted by every caller), so
+                // every index lies in [0, 2N] and `second` has 2N + 1 entries. Unchecked because
+                // this loop dominates the coarse-space cost and its bounds checks do not vectorise.
+                unsafe { (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d)) }
+            })
+            .sum()
+    }
+
+    /// Entry (a, b) of the group matrix: group a holds `runs_a`, group b `runs_b`; `same` when
+    /// a = b (then the pair (j, j) counts once and the pairs (j, k > j) twice).
+    fn group_entry(&self, runs_a: &[(usize, usize)], runs_b: &[(usize, usize)], same: bool) -> f64 {
+        if same {
+            (0..runs_a.len()).map(|j| self.sum_over(runs_a[j], &runs_a[j..j + 1]) + 2.0 * self.sum_over(runs_a[j], &runs_a[j + 1..])).sum()
+        } else {
+            runs_a.iter().map(|&r| self.sum_over(r, runs_b)).sum()
+        }
+    }
+
+    fn check_runs(&self, runs: &[(usize, usize)]) {
+        assert!(runs.iter().all(|&(a, b)| a <= b && b <= self.n), "runs must lie in [0, N]");
+    }
+
     /// G = Z^T C Z for the indicators Z of groups of consecutive runs (group g holds
     /// runs[bounds[g]..bounds[g + 1]]), row-major groups x groups.
     ///
@@ -63,30 +96,15 @@ impl PairSums {
     /// over each later group's runs, one write per (run, group).
     pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize]) -> Vec<f64> {
         let groups = bounds.len() - 1;
-        // block((a, b), (c, d)) = H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), and
-        // H(k) sits at k + N - 1: with the run ends shifted by N, every index is a plain sum.
-        let h = &self.second[..];
-        assert!(runs.iter().all(|&(a, b)| a <= b && b <= self.n), "runs must lie in [0, N]");
-        let sum_over = |(a, b): (usize, usize), others: &[(usize, usize)]| -> f64 {
-            let (hi, lo) = (b + self.n, a + self.n);
-            others
-                .iter()
-                .map(|&(c, d)| {
-                    // SAFETY: 0 <= a <= b <= N and 0 <= c <= d <= N (asserted above), so every
-                    // index lies in [0, 2N] and `second` has 2N + 1 entries. Unchecked because
-                    // this loop dominates the coarse-space cost and its bounds checks do not vectorise.
-                    unsafe { (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d)) }
-                })
-                .sum()
-        };
+        self.check_runs(runs);
         let mut g = vec![0.0; groups * groups];
         for ga in 0..groups {
             for j in bounds[ga]..bounds[ga + 1] {
                 let rj = runs[j];
                 // Within the group: the pair (j, j) once, pairs (j, k > j) twice.
-                g[ga * groups + ga] += sum_over(rj, &runs[j..j + 1]) + 2.0 * sum_over(rj, &runs[j + 1..bounds[ga + 1]]);
+                g[ga * groups + ga] += self.sum_over(rj, &runs[j..j + 1]) + 2.0 * self.sum_over(rj, &runs[j + 1..bounds[ga + 1]]);
                 for gb in ga + 1..groups {
-                    g[ga * groups + gb] += sum_over(rj, &runs[bounds[gb]..bounds[gb + 1]]);
+                    g[ga * groups + gb] += self.sum_over(rj, &runs[bounds[gb]..bounds[gb + 1]]);
                 }
             }
             for gb in ga + 1..groups {
@@ -125,6 +143,65 @@ pub(crate) fn runs(mask: &[bool]) -> Vec<(usize, usize)> {
     out
 }
 
+/// The group matrix of the last grouped coarse space of one solve. Between sweeps most runs of
+/// the contact set stay where they were; keeping the groups by position (group g takes the runs
+/// that start at or after `starts[g]` and before `starts[g + 1]`) instead of re-splitting them
+/// into equal counts, the next space recomputes only the rows of the groups whose runs changed:
+/// O(changed runs x runs) instead of O(runs^2). One cache serves one solve only, so that no result
+/// depends on an earlier solve.
+pub(crate) struct GroupCache {
+    max_dim: usize,
+    starts: Vec<usize>,
+    runs: Vec<(usize, usize)>,
+    bounds: Vec<usize>,
+    g: Vec<f64>,
+}
+
+impl GroupCache {
+    /// The bounds of `runs` in the cached groups, or None when a group would be empty or the
+    /// dimension differs (then the space is built afresh).
+    fn regroup(&self, runs: &[(usize, usize)], max_dim: usize) -> Option<Vec<usize>> {
+        if self.max_dim != max_dim {
+            return None;
+        }
+        let groups = self.starts.len();
+        let mut bounds = Vec::with_capacity(groups + 1);
+        bounds.push(0);
+        let mut g = 0;
+        for (j, &(start, _)) in runs.iter().enumerate() {
+            while g + 1 < groups && start >= self.starts[g + 1] {
+                g += 1;
+                bounds.push(j);
+            }
+        }
+        while bounds.len() < groups + 1 {
+            bounds.push(runs.len());
+        }
+        bounds.windows(2).all(|w| w[0] < w[1]).then_some(bounds)
+    }
+
+    /// The group matrix for `runs` grouped by `bounds` (from [`GroupCache::regroup`]): rows of
+    /// unchanged groups kept, the others summed again. Consumes the cached matrix.
+    fn update(&mut self, pair_sums: &PairSums, runs: &[(usize, usize)], bounds: &[usize]) -> Vec<f64> {
+        pair_sums.check_runs(runs);
+        let groups = bounds.len() - 1;
+        let group = |g: usize| &runs[bounds[g]..bounds[g + 1]];
+        let changed: Vec<bool> = (0..groups).map(|g| group(g) != &self.runs[self.bounds[g]..self.bounds[g + 1]]).collect();
+        let mut g = std::mem::take(&mut self.g);
+        for a in (0..groups).filter(|&a| changed[a]) {
+            for b in 0..groups {
+                if changed[b] && b < a {
+                    continue;
+                }
+                let value = pair_sums.group_entry(group(a), group(b), a == b);
+                g[a * groups + b] = value;
+                g[b * groups + a] = value;
+            }
+        }
+        g
+    }
+}
+
 /// Zero-sum island vectors Z0_g = 1_{group g} - (|group g| / m) 1_A, where a group is one run
 /// of contact or, when there are more runs than `max_dim`, several consecutive runs; with the
 /// Cholesky factor of E = Z0^T C Z0.
@@ -139,6 +216,9 @@ pub(crate) struct CoarseSpace {
     /// The `max_dim` it was built with, and whether every run of the set is in it.
     max_dim: usize,
     complete: bool,
+    /// Whether the groups are equal counts of runs (what a space built afresh has), not the
+    /// positions kept from an earlier space of the same solve ([`GroupCache`]).
+    equal_groups: bool,
 }
 
 impl CoarseSpace {
@@ -152,6 +232,7 @@ impl CoarseSpace {
         displacement_of_set: Option<&[f64]>,
         max_dim: usize,
         max_run_pairs: usize,
+        cache: &mut Option<GroupCache>,
     ) -> Option<Self> {
         let all_runs = runs.len();
         if Self::truncates(all_runs, max_dim, max_run_pairs) {
@@ -164,14 +245,28 @@ impl CoarseSpace {
             return None;
         }
         let complete = runs.len() == all_runs;
-        let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
+        // Grouped runs (every run kept): the groups of the solve's last space where they still fit.
+        let grouped = complete && runs.len() > max_dim;
+        let kept = cache.take().filter(|_| grouped);
+        let regrouped = kept.as_ref().and_then(|c| c.regroup(&runs, max_dim));
+        let equal_groups = regrouped.is_none();
+        let (bounds, g_matrix) = match (regrouped, kept) {
+            (Some(bounds), Some(mut c)) => {
+                let g = c.update(pair_sums, &runs, &bounds);
+                (bounds, g)
+            }
+            _ => {
+                let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
+                let g = pair_sums.group_matrix(&runs, &bounds);
+                (bounds, g)
+            }
+        };
         let m = mask.iter().filter(|&&m| m).count() as f64;
         let group_len = |g: usize| runs[bounds[g]..bounds[g + 1]].iter().map(|(s, e)| e - s).sum::<usize>();
         let weights: Vec<f64> = (0..groups).map(|g| group_len(g) as f64 / m).collect();
         // When every run is covered the group indicators sum to 1_A: one zero-sum vector is redundant.
         let columns = if complete { groups - 1 } else { groups };
         // E = G - row w^T - w row^T + total w w^T, G = Z^T C Z, row = Z^T C 1_A, total = 1_A^T C 1_A.
-        let g_matrix = pair_sums.group_matrix(&runs, &bounds);
         let (row, total): (Vec<f64>, f64) = if complete {
             // 1_A is the sum of the group indicators, so Z^T C 1_A are the row sums of G.
             let row: Vec<f64> = (0..groups).map(|a| g_matrix[a * groups..(a + 1) * groups].iter().sum()).collect();
@@ -193,17 +288,16 @@ impl CoarseSpace {
                 e_row[b] = g_row[b] - ra * weights[b] - wa * row[b] + total * wa * weights[b];
             }
         }
-        let llt = MatRef::from_column_major_slice(&e, columns, columns).llt(Side::Lower).ok()?;
-        let l = llt.L();
-        let mut factor = e;
-        for a in 0..columns {
-            for b in 0..=a {
-                factor[a * columns + b] = l[(a, b)];
-            }
+        let factor = cholesky(e, columns);
+        if grouped {
+            let mut starts: Vec<usize> = bounds[..groups].iter().map(|&j| runs[j].0).collect();
+            starts[0] = 0;
+            *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix });
         }
+        let factor = factor?;
         let mut bounds = bounds;
         bounds.truncate(columns + 1);
-        Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete })
+        Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete, equal_groups })
     }
 
     /// Whether only the largest runs are kept (then C 1_A is needed to build the space).
@@ -218,7 +312,7 @@ impl CoarseSpace {
 
     /// Whether `new(runs, .., max_dim, ..)` would build this very space again.
     pub fn is_same(&self, runs: &[(usize, usize)], max_dim: usize) -> bool {
-        self.complete && self.runs == runs && (self.max_dim == max_dim || runs.len() <= max_dim.min(self.max_dim))
+        self.complete && self.equal_groups && self.runs == runs && (self.max_dim == max_dim || runs.len() <= max_dim.min(self.max_dim))
     }
 
     pub fn dim(&self) -> usize {
@@ -260,20 +354,38 @@ impl CoarseSpace {
     }
 }
 
-/// Dot product with four interleaved partial sums (vectorises; fixed order, so deterministic).
-fn dot4(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0; 4];
-    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
-    let tail: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
-    for (x, y) in a4.zip(b4) {
-        acc[0] += x[0] * y[0];
-        acc[1] += x[1] * y[1];
-        acc[2] += x[2] * y[2];
-        acc[3] += x[3] * y[3];
+/// Below this dimension E is factored here (a plain row-by-row Cholesky on [`dot4`]); above it by
+/// faer, whose blocked factorisation wins from there on but costs more than the whole O(dim^3 / 6)
+/// work for the coarse spaces of N = 1,000 segments (at most 62 vectors).
+const SMALL_FACTOR: usize = 128;
+
+/// The lower Cholesky factor of the symmetric `e` (row-major, dim x dim) in place of it, row-major
+/// with the upper triangle left as it was; None if `e` is not numerically positive definite.
+fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
+    if dim >= SMALL_FACTOR {
+        let llt = MatRef::from_column_major_slice(&e, dim, dim).llt(Side::Lower).ok()?;
+        let l = llt.L();
+        for a in 0..dim {
+            for b in 0..=a {
+                e[a * dim + b] = l[(a, b)];
+            }
+        }
+        return Some(e);
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+    for i in 0..dim {
+        let (done, rest) = e.split_at_mut(i * dim);
+        let row = &mut rest[..dim];
+        for j in 0..i {
+            let lj = &done[j * dim..j * dim + j + 1];
+            row[j] = (row[j] - dot4(&row[..j], &lj[..j])) / lj[j];
+        }
+        let pivot = row[i] - dot4(&row[..i], &row[..i]);
+        if !pivot.is_finite() || pivot <= 0.0 {
+            return None;
+        }
+        row[i] = pivot.sqrt();
+    }
+    Some(e)
 }
 
 /// y <- (L L^T)^-1 y.
@@ -328,6 +440,60 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn group_cache_updates_only_changed_groups_to_the_direct_sums() {
+        let n = 64;
+        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()) - 0.01 * (d * d) as f64;
+        let sums = PairSums::new(n, kernel);
+        let before = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41), (45, 50), (55, 64)];
+        let bounds = vec![0usize, 2, 4, 6, 8];
+        let g = sums.group_matrix(&before, &bounds);
+        let starts = vec![0, 8, 22, 45];
+        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g };
+        // One run of the second group grows, one of the last shrinks, a run joins the third.
+        let after = [(0usize, 3usize), (5, 6), (8, 17), (20, 21), (22, 30), (33, 41), (42, 43), (45, 50), (56, 64)];
+        let new_bounds = cache.regroup(&after, 4).expect("every group keeps a run");
+        assert_eq!(new_bounds, vec![0, 2, 4, 7, 9]);
+        let g = cache.update(&sums, &after, &new_bounds);
+        let members = |grp: usize| -> Vec<usize> { after[new_bounds[grp]..new_bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
+        for a in 0..4 {
+            for b in 0..4 {
+                let direct: f64 =
+                    members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
+                assert!((g[a * 4 + b] - direct).abs() < 1e-9 * direct.abs().max(1.0), "{a} {b}");
+            }
+        }
+        // A group left without runs, or another dimension: built afresh.
+        assert!(cache.regroup(&after[..7], 4).is_none());
+        assert!(cache.regroup(&after, 5).is_none());
+    }
+
+    #[test]
+    fn small_cholesky_factors_and_refuses_indefinite_matrices() {
+        for dim in [1usize, 2, 5, 37, 127, 128, 200] {
+            // A well-conditioned SPD matrix: a diagonal plus a smooth kernel.
+            let e: Vec<f64> = (0..dim * dim)
+                .map(|k| (k / dim, k % dim))
+                .map(|(a, b)| 1.0 / (1.0 + (a as f64 - b as f64).abs()) + (a == b) as u8 as f64)
+                .collect();
+            let l = cholesky(e.clone(), dim).expect("positive definite");
+            for a in 0..dim {
+                for b in 0..=a {
+                    let llt: f64 = (0..=b).map(|k| l[a * dim + k] * l[b * dim + k]).sum();
+                    assert!((llt - e[a * dim + b]).abs() < 1e-12, "dim={dim} ({a}, {b})");
+                }
+            }
+            let mut y: Vec<f64> = (0..dim).map(|k| (k as f64).sin()).collect();
+            let rhs = y.clone();
+            cholesky_solve(&l, dim, &mut y);
+            for a in 0..dim {
+                let ey: f64 = (0..dim).map(|b| e[a * dim + b] * y[b]).sum();
+                assert!((ey - rhs[a]).abs() < 1e-10, "dim={dim} row {a}");
+            }
+        }
+        assert!(cholesky(vec![1.0, 2.0, 2.0, 1.0], 2).is_none());
     }
 
     #[test]

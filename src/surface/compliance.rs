@@ -56,6 +56,10 @@ impl Compliance for SurfacePeriodic {
         self.circulant.scratch()
     }
 
+    fn fft_pairs(scratch: &Circulant2Scratch) -> u64 {
+        scratch.pairs()
+    }
+
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Circulant2Scratch) {
         self.circulant.apply(&self.spectrum, pressure, out, scratch);
     }
@@ -128,6 +132,10 @@ impl SurfaceFinite {
 
 impl Compliance for SurfaceFinite {
     type Scratch = SurfaceFiniteScratch;
+
+    fn fft_pairs(scratch: &SurfaceFiniteScratch) -> u64 {
+        scratch.embedded.pairs() + scratch.periodic.pairs()
+    }
 
     fn len(&self) -> usize {
         self.grid.len()

@@ -39,6 +39,15 @@ pub struct Circulant2Scratch {
     columns: Vec<Complex<f64>>,
     row_scratch: Vec<Complex<f64>>,
     column_scratch: Vec<Complex<f64>>,
+    /// 2-D FFT pairs applied with this scratch (a cost counter, as the line solver's).
+    pairs: u64,
+}
+
+impl Circulant2Scratch {
+    /// 2-D FFT pairs (circulant products) applied so far with this scratch.
+    pub fn pairs(&self) -> u64 {
+        self.pairs
+    }
 }
 
 impl Circulant2 {
@@ -78,6 +87,7 @@ impl Circulant2 {
             columns: vec![Complex::default(); self.half_width() * self.stride],
             row_scratch: vec![Complex::default(); row_len],
             column_scratch: vec![Complex::default(); column_len],
+            pairs: 0,
         }
     }
 
@@ -184,6 +194,7 @@ impl Circulant2 {
         self.rows_forward(input, s);
         self.columns(Some(multiplier), s);
         self.rows_inverse(s, out);
+        s.pairs += 1;
     }
 
     /// Eigenvalues of the block-circulant operator whose first column (the response to a unit

@@ -265,6 +265,26 @@ def test_segments_refuse_what_they_cannot_cut():
         p.segments(length=1000 * p.dx).stitch(np.zeros((1, 3)))
 
 
+def test_fft_friendly_length_is_the_smallest_five_smooth_count_at_or_above():
+    from roadtex.profiles.segments import fft_friendly_length
+
+    def smooth(m: int) -> bool:
+        for prime in (2, 3, 5):
+            while m % prime == 0:
+                m //= prime
+        return m == 1
+
+    for n in range(0, 3000, 7):
+        got = fft_friendly_length(n)
+        assert got >= max(n, 1) and smooth(got), n
+        assert not any(smooth(m) for m in range(max(n, 1), got)), n
+    assert fft_friendly_length(13_334) == 13_500  # 0.5 m at 0.0375 mm: 2 x 59 x 113 -> 2^2 x 3^3 x 5^3
+    assert fft_friendly_length(np.int64(1000)) == 1000
+    for bad in (-1, 2.5, True, 2**41):
+        with pytest.raises(ValueError, match="n"):
+            fft_friendly_length(bad)
+
+
 # --------------------------------------------------------------------------------------------------
 # reading CAPTIF files
 

@@ -1,0 +1,229 @@
+//! How close the contact solve is to its FFT floor (issue 18).
+//!
+//! An FFT-based solve cannot cost less than one kernel application, a real FFT pair, per
+//! iteration. For each case this prints the iterations per solve, the time per solve, the time of
+//! one realfft forward plus inverse pair of the same N and their ratio, "FFT pairs per solve";
+//! beside it the pairs the solve really applied (counted in its workspace), so the rest of the
+//! ratio is work outside the transforms. One thread; times are the thread's CPU time where Linux
+//! reports it (/proc/thread-self/schedstat), wall-clock time elsewhere. Each repetition of a case is followed by an
+//! FFT-pair timing, and the ratio printed is the median of the per-repetition ratios (the machine
+//! is shared: ratios of times taken together are what count); the times printed are the best, and
+//! `best/best` is their ratio.
+//!
+//! * `road`: 64 road-like segments of N = 1,000 (0.5 m at 0.5 mm, self-affine, seeds 0..64), each
+//!   under E = 1, 2, 5, 10 MPa (nu 0.5, P = 0.2 MPa) in that order, warm-started from the last,
+//!   tol 1e-6 (the bulk job's unit of work). Targets: at most 40 pairs per solve.
+//! * `self-affine 2^16` (and 2^20 with `--large`): Hurst 0.8, rms slope 0.1, L = 1, E* = 1,
+//!   P = 0.0105, cutoff 0.25, seed 1, tol 1e-8, cold start. Targets: 150 and 600 pairs.
+//!
+//! Run: `cargo bench --bench fft_floor` (add `-- --large` for 2^20, about a minute or more;
+//! `-- --only road|16|20` for one case, e.g. under `perf record`).
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use realfft::RealFftPlanner;
+use roadtex::solver::{ContactSolution, ContactSolver, Material, SolverOptions, Workspace};
+use roadtex::synthetic::self_affine;
+
+const HURST: f64 = 0.8;
+const RMS_SLOPE: f64 = 0.1;
+const CUTOFF: f64 = 0.25;
+
+/// A clock for this thread: its CPU time (s) from /proc/thread-self/schedstat where Linux has it,
+/// so that time spent descheduled on a shared machine is not counted; else wall-clock time.
+struct Clock(Instant);
+
+impl Clock {
+    fn start() -> (Self, f64) {
+        (Clock(Instant::now()), Self::cpu().unwrap_or(0.0))
+    }
+
+    fn cpu() -> Option<f64> {
+        let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+        Some(text.split_whitespace().next()?.parse::<f64>().ok()? * 1e-9)
+    }
+
+    fn elapsed(&self, cpu_start: f64) -> f64 {
+        match Self::cpu() {
+            Some(now) => now - cpu_start,
+            None => self.0.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// Times forward plus inverse real FFT pairs of size n.
+struct PairTimer {
+    n: usize,
+    forward: std::sync::Arc<dyn realfft::RealToComplex<f64>>,
+    inverse: std::sync::Arc<dyn realfft::ComplexToReal<f64>>,
+}
+
+impl PairTimer {
+    fn new(n: usize) -> Self {
+        let mut planner = RealFftPlanner::<f64>::new();
+        Self { n, forward: planner.plan_fft_forward(n), inverse: planner.plan_fft_inverse(n) }
+    }
+
+    /// Time of one pair (s): the median mean over `batches` batches of about 0.2 s each (the CPU
+    /// clock may tick in steps of a few ms).
+    fn time(&self, batches: usize) -> f64 {
+        let n = self.n;
+        let mut real = vec![0.0; n];
+        let mut out = vec![0.0; n];
+        let mut spectrum = self.forward.make_output_vec();
+        let mut fs = self.forward.make_scratch_vec();
+        let mut is = self.inverse.make_scratch_vec();
+        let reps = (50_000_000 / n).max(20);
+        let mut means = Vec::with_capacity(batches);
+        for _ in 0..batches {
+            let (clock, start) = Clock::start();
+            for r in 0..reps {
+                real.iter_mut().enumerate().for_each(|(i, x)| *x = ((i + r) % 17) as f64);
+                self.forward.process_with_scratch(&mut real, &mut spectrum, &mut fs).expect("sizes");
+                spectrum[0].im = 0.0;
+                if n % 2 == 0 {
+                    spectrum[n / 2].im = 0.0;
+                }
+                self.inverse.process_with_scratch(&mut spectrum, &mut out, &mut is).expect("sizes");
+                black_box(&out);
+            }
+            means.push(clock.elapsed(start) / reps as f64);
+        }
+        means.sort_by(f64::total_cmp);
+        means[means.len() / 2]
+    }
+}
+
+struct Measured {
+    name: String,
+    n: usize,
+    solves: usize,
+    iterations: f64,
+    pairs_applied: f64,
+    /// Best time per solve and best FFT-pair time (s).
+    time: f64,
+    pair: f64,
+    /// Median over the repetitions of (time per solve) / (FFT-pair time measured right after it).
+    ratio: f64,
+    /// Best time per solve over best FFT-pair time.
+    best_ratio: f64,
+    worst_residual: f64,
+    converged: bool,
+}
+
+/// Runs `run` (which solves `solves` problems and returns them with the FFT pairs its
+/// workspaces applied) `repeats` times, each
+/// followed by an FFT-pair timing of the same N, so that every ratio compares two times taken
+/// under the same machine load.
+fn measure(name: &str, n: usize, solves: usize, repeats: usize, mut run: impl FnMut() -> (Vec<ContactSolution>, u64)) -> Measured {
+    let timer = PairTimer::new(n);
+    let (mut best, mut best_pair, mut ratios) = (f64::INFINITY, f64::INFINITY, Vec::new());
+    let mut last = (Vec::new(), 0);
+    for _ in 0..repeats {
+        let (clock, start) = Clock::start();
+        let (sols, pairs) = run();
+        let per_solve = clock.elapsed(start) / solves as f64;
+        let pair = timer.time(5);
+        ratios.push(per_solve / pair);
+        best = best.min(per_solve);
+        best_pair = best_pair.min(pair);
+        last = (sols, pairs);
+    }
+    ratios.sort_by(f64::total_cmp);
+    let (sols, pairs) = last;
+    assert_eq!(sols.len(), solves);
+    Measured {
+        name: name.to_string(),
+        n,
+        solves,
+        iterations: sols.iter().map(|s| s.iterations).sum::<usize>() as f64 / solves as f64,
+        pairs_applied: pairs as f64 / solves as f64,
+        time: best,
+        pair: best_pair,
+        ratio: ratios[ratios.len() / 2],
+        best_ratio: best / best_pair,
+        worst_residual: sols.iter().map(|s| s.residual).fold(0.0, f64::max),
+        converged: sols.iter().all(|s| s.converged),
+    }
+}
+
+fn road(repeats: usize) -> Measured {
+    let (n, segments, dx) = (1000usize, 64u64, 5e-4);
+    let moduli = [1e6, 2e6, 5e6, 1e7];
+    let profiles: Vec<Vec<f64>> = (0..segments).map(|seed| self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, CUTOFF, seed)).collect();
+    let solver = ContactSolver::new(n, dx, SolverOptions { tol: 1e-6, ..Default::default() }).expect("solver");
+    let rubbers: Vec<Material> = moduli.iter().map(|&e| Material::new(e, 0.5).expect("material")).collect();
+    // Four passes over the segments per repetition: about 0.4 s, long against the CPU clock's step.
+    let passes = 4;
+    measure("road N=1000 x4 E warm", n, passes * profiles.len() * moduli.len(), repeats, || {
+        let mut workspace = Workspace::default();
+        let mut out = Vec::with_capacity(passes * profiles.len() * moduli.len());
+        for heights in std::iter::repeat(&profiles).take(passes).flatten() {
+            let mut previous: Option<Vec<f64>> = None;
+            for &rubber in &rubbers {
+                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, previous.as_deref()).expect("solve");
+                previous = sol.converged.then(|| sol.pressure.clone());
+                out.push(sol);
+            }
+        }
+        (out, workspace.fft_pairs())
+    })
+}
+
+fn self_affine_case(log2_n: u32, repeats: usize) -> Measured {
+    let n = 1usize << log2_n;
+    let heights = self_affine(n, 1.0, HURST, RMS_SLOPE, CUTOFF, 1);
+    let solver =
+        ContactSolver::new(n, 1.0 / n as f64, SolverOptions { tol: 1e-8, max_iterations: 20_000, ..Default::default() }).expect("solver");
+    let rubber = Material::new(0.75, 0.5).expect("E* = 1");
+    // Below 2^18 two solves per repetition (a fresh workspace each), so that it lasts about 0.4 s.
+    let solves = if log2_n < 18 { 2 } else { 1 };
+    measure(&format!("self-affine 2^{log2_n}"), n, solves, repeats, || {
+        let (mut sols, mut pairs) = (Vec::new(), 0);
+        for _ in 0..solves {
+            let mut workspace = Workspace::default();
+            sols.push(solver.solve_in(&mut workspace, &heights, rubber, 0.0105).expect("solve"));
+            pairs += workspace.fft_pairs();
+        }
+        (sols, pairs)
+    })
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let large = args.iter().any(|a| a == "--large");
+    // `--only road` / `--only 16` / `--only 20` runs one case (for profiling).
+    let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
+    let wanted = |name: &str| only.map_or(true, |o| o == name);
+    let mut cases = Vec::new();
+    if wanted("road") {
+        cases.push(road(7));
+    }
+    if wanted("16") {
+        cases.push(self_affine_case(16, 7));
+    }
+    if large || only == Some("20") {
+        cases.push(self_affine_case(20, 2));
+    }
+    println!(
+        "{:<24} {:>8} {:>7} {:>10} {:>12} {:>10} {:>12} {:>10} {:>13} {:>9}",
+        "case", "N", "solves", "iterations", "time/solve", "FFT pair", "pairs/solve", "best/best", "pairs applied", "residual"
+    );
+    for m in &cases {
+        println!(
+            "{:<24} {:>8} {:>7} {:>10.1} {:>9.3} ms {:>7.2} us {:>12.0} {:>10.0} {:>13.1} {:>9.1e}{}",
+            m.name,
+            m.n,
+            m.solves,
+            m.iterations,
+            m.time * 1e3,
+            m.pair * 1e6,
+            m.ratio,
+            m.best_ratio,
+            m.pairs_applied,
+            m.worst_residual,
+            if m.converged { "" } else { "  NOT CONVERGED" }
+        );
+    }
+}
