@@ -72,12 +72,24 @@ def spike_window(dx: float, dy: float) -> np.ndarray:
 
 def spike_mask(surface: Surface, alpha: float) -> np.ndarray:
     """Readings that are spikes (True): at least ``alpha`` x SPIKE_WINDOW (m) from the median of the
-    readings within SPIKE_WINDOW of them (drop-outs filled for the median only)."""
+    readings within SPIKE_WINDOW of them on the surface (the elliptical window of
+    :func:`spike_window`) and also from the median within SPIKE_WINDOW along their own row (the
+    line profiles' criterion, :func:`roadtex.profiles.conditioning.spike_mask`). Requiring both
+    keeps sharp corners of steep stone edges, which a 2-D window alone flags at fine sampling
+    (most of the window lies on the other side of a right-angled corner), and never flags more on
+    a row than the line criterion would. Drop-outs are filled for the medians only."""
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = surface.heights
     valid = ~np.isnan(z)
-    local = ndimage.median_filter(filled_heights(z), footprint=spike_window(surface.dx, surface.dy), mode="nearest")
-    return valid & (np.abs(z - local) >= alpha_f * SPIKE_WINDOW)
+    filled = filled_heights(z)
+    threshold = alpha_f * SPIKE_WINDOW
+    local = ndimage.median_filter(filled, footprint=spike_window(surface.dx, surface.dy), mode="nearest")
+    mask = valid & (np.abs(z - local) >= threshold)
+    if mask.any():
+        half = max(1, int(round(SPIKE_WINDOW / surface.dx)))
+        along = ndimage.median_filter(filled, size=(1, 2 * half + 1), mode="nearest")
+        mask &= np.abs(z - along) >= threshold
+    return mask
 
 
 def remove_spikes(surface: Surface, alpha: float = 3.0) -> Surface:

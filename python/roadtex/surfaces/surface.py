@@ -142,9 +142,10 @@ class Surface:
     def remove_spikes(self, alpha: float = 3.0) -> "Surface":
         """Flags spikes as drop-outs (NaN) with the sampling-independent criterion of the line
         profiles (:func:`roadtex.profiles.conditioning.spike_mask`): a reading at least
-        ``alpha`` x 0.5 mm from the median of the readings within 0.5 mm of it (an elliptical
-        window of 0.5 mm radius in x and y, at least one neighbour each way). Straight stone edges
-        are kept: most of such a window lies on the reading's own side of the edge."""
+        ``alpha`` x 0.5 mm from the median of the readings within 0.5 mm of it, both over the
+        surface (an elliptical window of 0.5 mm radius in x and y, at least one neighbour each way)
+        and along its row; see :func:`roadtex.surfaces.conditioning.spike_mask`. Stone edges and
+        their corners are kept."""
         return conditioning.remove_spikes(self, alpha)
 
     def remove_plane(self) -> "Surface":
