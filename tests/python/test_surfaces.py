@@ -310,3 +310,14 @@ def test_tined_concrete_grooves_run_across_the_road() -> None:
 def test_surface_api_is_exported_from_the_package_root() -> None:
     assert roadtex.Surface is Surface and roadtex.read_surface is read_surface
     assert roadtex.synthetic_surface is synthetic_surface
+
+
+def test_porous_asphalt_surface_is_negative_texture_unlike_the_others() -> None:
+    # negative texture: a plateau of stone tops with deep pores, heights skewed downwards
+    def skewness(kind: str) -> float:
+        z = synthetic_surface(kind, 0.5, 0.1, 0.25e-3, seed=0).heights
+        return float(np.mean((z - z.mean()) ** 3) / np.mean((z - z.mean()) ** 2) ** 1.5)
+
+    assert skewness("porous_asphalt") < -0.8
+    for kind in ("dense_asphalt", "surface_dressing", "cement_concrete"):
+        assert skewness(kind) > -0.3, kind

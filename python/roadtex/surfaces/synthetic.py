@@ -31,7 +31,7 @@ from roadtex.surfaces.surface import Surface
 #: binder sits relatively deeper than along the line generator's crests).
 SURFACE_DEFAULTS: dict[str, dict[str, float]] = {
     "dense_asphalt": dict(row_pitch=0.75, elongation=0.3, depth_scale=1.0),
-    "porous_asphalt": dict(row_pitch=0.8, elongation=0.3, depth_scale=0.85),
+    "porous_asphalt": dict(row_pitch=0.8, elongation=0.3, depth_scale=0.75),
     "surface_dressing": dict(row_pitch=0.8, elongation=0.3, depth_scale=1.0),
     "cement_concrete": dict(row_pitch=0.8, elongation=0.3, depth_scale=1.0),
 }
