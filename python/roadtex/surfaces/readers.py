@@ -18,6 +18,11 @@ from roadtex.surfaces.surface import Surface
 
 #: Formats :func:`read_surface` reads.
 SURFACE_FORMATS = ("crg", "csv", "npy", "parquet")
+#: The options :func:`read_surface` takes, with their types (for a bulk job's manifest columns).
+SURFACE_READ_OPTIONS: dict[str, type] = {
+    "dx": float, "dy": float, "height_unit": str, "distance_unit": str, "x_column": str, "y_column": str,
+    "z_column": str,
+}
 #: Column names recognised in long tables, by role (case and units ignored).
 X_NAMES = ("x", "distance", "position", "longitudinal", "along", "chainage", "u")
 Y_NAMES = ("y", "lateral", "transverse", "across", "offset", "v")
@@ -27,6 +32,7 @@ GRID_TOLERANCE = 1e-3
 
 
 def guess_surface_format(path: Path, head: bytes) -> str:
+    """The format of a file from its first bytes, then its suffix (CSV when nothing else fits)."""
     if head.startswith(b"\x93NUMPY"):
         return "npy"
     if head.startswith(b"PAR1"):
@@ -98,6 +104,7 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
 
 def finish(name: str, fmt: str, heights: np.ndarray, dx: float, dy: float, metadata: dict, history: list[str],
            x0: float = 0.0, y0: float = 0.0) -> Surface:
+    """The :class:`Surface` a reader found (heights m, spacings and origin m), with its history line."""
     if np.isinf(heights).any():
         raise ProfileFormatError(f"{name}: holds an infinite or overflowing height")
     if np.isnan(heights).all():
@@ -110,6 +117,7 @@ def finish(name: str, fmt: str, heights: np.ndarray, dx: float, dy: float, metad
 
 
 def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
+    """A 2-D ``.npy`` array and its optional JSON sidecar; see :func:`read_surface`."""
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -162,6 +170,7 @@ def grid_index(values: np.ndarray, given: float | None, what: str, name: str) ->
 
 
 def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
+    """A Parquet or CSV table of (x, y, z) readings on a grid; see :func:`read_surface`."""
     try:
         if fmt == "parquet":
             frame = pl.read_parquet(path)
@@ -216,11 +225,12 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
 
 
 def read_crg(path: Path, name: str, options: dict) -> Surface:
+    """An OpenCRG file through pycrg (heights relative to the reference line); see :func:`read_surface`."""
     try:
         import pycrg
     except ImportError:
         raise MissingDependencyError(f"{name}: reading OpenCRG (.crg) files needs the pycrg package "
-                                     "(pip install pycrg; it wraps the ASAM OpenCRG C library)") from None
+                                     "(pip install pycrg, or roadtex[crg]; it wraps the ASAM OpenCRG C library)") from None
     try:
         with pycrg.DataSet.open(str(path), apply_modifiers=False) as dataset:
             grid = dataset.grid()

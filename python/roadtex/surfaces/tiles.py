@@ -140,7 +140,7 @@ def cut_tiles(surface: Surface, length: float, width: float, overlap: float | tu
         raise InvalidInputError(f"a tile of {length_f:.6g} m x {width_f:.6g} m exceeds the surface "
                                 f"({surface.length:.6g} m x {surface.width:.6g} m)")
     ox_points, oy_points = int(round(ox / surface.dx)), int(round(oy / surface.dy))
-    if not (0 <= ox_points < columns and 0 <= oy_points < max(rows, 1)) or (rows == 1 and oy_points):
+    if not (0 <= ox_points < columns and 0 <= oy_points < rows):
         raise InvalidInputError(f"overlap must be in [0, tile size) in each direction, got {overlap!r} m "
                                 f"for tiles of {length_f!r} m x {width_f!r} m")
     along = tile_starts(columns_total, columns, ox_points)
