@@ -110,17 +110,18 @@ def test_missing_empty_and_unknown_format_are_clear(tmp_path: Path) -> None:
         read_surface(tmp_path / "empty.csv", format="stl")
 
 
-def test_crg_round_trips_through_pycrg(tmp_path: Path) -> None:
+@pytest.mark.parametrize("fmt, atol", [("KRBI", 1e-9), ("LRFI", 1e-7)])   # binary; ASCII (8 digits)
+def test_crg_round_trips_through_pycrg(tmp_path: Path, fmt: str, atol: float) -> None:
     pycrg = pytest.importorskip("pycrg")
     nu, nv = 40, 9
     z = RNG.normal(0.0, 1e-3, (nu, nv))                     # OpenCRG's (cross sections, long sections)
     v = -0.004 + 1e-3 * np.arange(nv)
-    pycrg.write(tmp_path / "road.crg", z, 0.5e-3, v, 0.0, mods={}, comment="roadtex test")
+    pycrg.write(tmp_path / "road.crg", z, 0.5e-3, v, 0.0, mods={}, comment="roadtex test", fmt=fmt)
     surface = read_surface(tmp_path / "road.crg")
     assert surface.shape == (nv, nu)
-    np.testing.assert_allclose(surface.heights, z.T, rtol=0, atol=1e-9)   # stored in single precision
+    np.testing.assert_allclose(surface.heights, z.T, rtol=0, atol=atol)   # OpenCRG keeps single precision
     assert surface.dx == pytest.approx(0.5e-3, rel=1e-6) and surface.dy == pytest.approx(1e-3, rel=1e-6)
-    assert surface.y0 == pytest.approx(-0.004, abs=1e-9)
+    assert surface.y0 == pytest.approx(-0.004, abs=1e-9) and surface.metadata["crg_data_format"] == fmt
     (tmp_path / "bad.crg").write_text("$CT\nnot really a crg file\n$\n", encoding="ascii")
     with pytest.raises(ProfileFormatError, match=r"bad\.crg"):
         read_surface(tmp_path / "bad.crg")
@@ -321,3 +322,17 @@ def test_porous_asphalt_surface_is_negative_texture_unlike_the_others() -> None:
     assert skewness("porous_asphalt") < -0.8
     for kind in ("dense_asphalt", "surface_dressing", "cement_concrete"):
         assert skewness(kind) > -0.3, kind
+
+
+def test_surface_refuses_what_is_not_a_surface() -> None:
+    with pytest.raises(InvalidInputError, match="2-D"):
+        Surface(np.zeros(10), 1e-3, 1e-3)
+    with pytest.raises(InvalidInputError, match="inf at row 1, column 2"):
+        Surface(np.where(np.arange(12).reshape(3, 4) == 6, np.inf, 0.0), 1e-3, 1e-3)
+    with pytest.raises(InvalidInputError, match="all heights are NaN"):
+        Surface(np.full((2, 3), np.nan), 1e-3, 1e-3)
+    with pytest.raises(InvalidInputError, match="dy"):
+        Surface(np.zeros((2, 3)), 1e-3, -1.0)
+    surface = grid_surface()
+    with pytest.raises(ValueError):
+        surface.heights[0, 0] = 1.0                           # read-only: steps return new surfaces
