@@ -9,7 +9,8 @@ The periodic INRETS contact model (Klein & Hamet) solved in Rust; SI units throu
 True
 
 Subpackages, by concern: :mod:`roadtex.profiles` (the profile model, conditioning, segments,
-readers, MPD, synthetic profiles), :mod:`roadtex.models` (contact, von Meier, Clapp, closed forms,
+readers, MPD, synthetic profiles), :mod:`roadtex.surfaces` (3D surfaces: the
+Surface model, conditioning, lines, tiles, readers, synthetic surfaces), :mod:`roadtex.models` (contact, von Meier, Clapp, closed forms,
 comparisons), :mod:`roadtex.spectra` (bands, levels, regressions, calibration),
 :mod:`roadtex.budget` (the error budget: convergence study and pilot), :mod:`roadtex.archive`
 (the bulk job), :mod:`roadtex.report`; errors in :mod:`roadtex.errors`.
@@ -62,6 +63,7 @@ from roadtex.spectra import (
                             time_frequency,
                             with_time_frequency,
 )
+from roadtex.surfaces import Surface, read_surface, synthetic_surface
 
 __all__ = [
     "__version__", "errors",
@@ -76,5 +78,5 @@ __all__ = [
     "BudgetChoice", "choose_setting", "convergence_study",
     "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report",
     "Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement",
-    "pavements", "synthetic",
+    "pavements", "synthetic", "Surface", "read_surface", "synthetic_surface",
 ]

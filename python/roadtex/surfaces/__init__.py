@@ -1,0 +1,11 @@
+"""Road surfaces (3D texture): the :class:`Surface` model (``heights[iy, ix]`` in metres, rows
+across the road, columns along it), its conditioning, longitudinal lines as profiles, tiles for
+the areal contact model, readers (2-D npy, long tables in Parquet or CSV, OpenCRG) and synthetic
+3D pavements. Units: metres."""
+
+from roadtex.surfaces.readers import read_surface
+from roadtex.surfaces.surface import Surface
+from roadtex.surfaces.synthetic import synthetic_surface
+from roadtex.surfaces.tiles import Tiles
+
+__all__ = ["Surface", "Tiles", "read_surface", "synthetic_surface"]

@@ -1,0 +1,256 @@
+"""Reading road surface files: 2-D ``.npy``, long tables (x, y, z) in Parquet or CSV, OpenCRG ``.crg``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+
+from roadtex._checks import positive
+from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError
+from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.readers.delimited import sniff_separator
+from roadtex.profiles.readers.text import column_unit, first_lines, pick_column
+from roadtex.profiles.units import unit_factor
+from roadtex.surfaces.surface import Surface
+
+#: Formats :func:`read_surface` reads.
+SURFACE_FORMATS = ("crg", "csv", "npy", "parquet")
+#: The options :func:`read_surface` takes, with their types (for a bulk job's manifest columns).
+SURFACE_READ_OPTIONS: dict[str, type] = {
+    "dx": float, "dy": float, "height_unit": str, "distance_unit": str, "x_column": str, "y_column": str,
+    "z_column": str,
+}
+#: Column names recognised in long tables, by role (case and units ignored).
+X_NAMES = ("x", "distance", "position", "longitudinal", "along", "chainage", "u")
+Y_NAMES = ("y", "lateral", "transverse", "across", "offset", "v")
+Z_NAMES = ("z", "height", "elevation", "h", "texture")
+#: Grid positions must sit within this fraction of a spacing of a grid node.
+GRID_TOLERANCE = 1e-3
+
+
+def guess_surface_format(path: Path, head: bytes) -> str:
+    """The format of a file from its first bytes, then its suffix (CSV when nothing else fits)."""
+    if head.startswith(b"\x93NUMPY"):
+        return "npy"
+    if head.startswith(b"PAR1"):
+        return "parquet"
+    suffix = path.suffix.lower()
+    if suffix == ".crg" or head.lstrip().startswith((b"$CT", b"$ROAD_CRG", b"$KD_DEFINITION", b"$!")):
+        return "crg"
+    if suffix in (".parquet", ".pq"):
+        return "parquet"
+    return "csv"
+
+
+def read_surface(path: str | Path, format: str | None = None, *, dx: float | None = None, dy: float | None = None,
+                 height_unit: str | None = None, x_column: str | int | None = None, y_column: str | int | None = None,
+                 z_column: str | int | None = None, distance_unit: str | None = None) -> Surface:
+    """Reads a road surface file into a :class:`Surface` in metres, drop-outs as NaN.
+
+    Formats (``format=None`` guesses from the content, then the suffix):
+
+    - ``"npy"``: a 2-D array ``heights[iy, ix]`` (rows across the road, columns along it); the
+      spacings ``dx`` (along) and ``dy`` (across, default ``dx``) in m are arguments (the bulk job
+      passes its manifest columns), heights in metres unless ``height_unit`` says otherwise. A
+      ``<file>.npy.json`` sidecar may hold ``dx``, ``dy``, ``height_unit``, ``metadata``, ``history``.
+    - ``"parquet"`` or ``"csv"``: a long table with one row per reading and columns x (along), y
+      (across) and z (height), found by name (x, distance, position / y, lateral, transverse /
+      z, height, elevation) or given as ``x_column``, ``y_column``, ``z_column``. Units come from
+      the header (``"x (mm)"``, ``"z [um]"``, ``"z_mm"``) or ``distance_unit`` / ``height_unit``.
+      The positions must lie on a regular grid (grid nodes without a row are drop-outs); the
+      spacings are found from the data (``dx``, ``dy`` override them). CSV: the separator (tab,
+      ``;``, ``,``) is sniffed; ``#`` lines are comments.
+    - ``"crg"``: ASAM OpenCRG through the ``pycrg`` package (``pip install pycrg``), which wraps the
+      reference C library; all four data formats. The grid is read as stored (no modifiers applied)
+      and ``z`` is taken relative to the reference line (its slope, banking and curvature are the
+      road's geometry, not its texture): u along the road is x, v across is y (rows from right to
+      left, v increasing).
+
+    Raises:
+        ProfileFormatError: the file is missing, empty, unreadable, not a grid, or has no usable
+            column (the message names the file).
+        InvalidInputError: an unknown format or unit, or a bad spacing.
+        MissingDependencyError: a ``.crg`` file without ``pycrg`` installed.
+    """
+    file = Path(path)
+    name = file.name
+    if format is not None and format not in SURFACE_FORMATS:
+        raise InvalidInputError(f"unknown surface format {format!r}; known formats: {', '.join(SURFACE_FORMATS)}")
+    if not file.is_file():
+        raise ProfileFormatError(f"no such file: {file}")
+    if file.stat().st_size == 0:
+        raise ProfileFormatError(f"{name} is empty")
+    with file.open("rb") as handle:
+        head = handle.read(4096)
+    fmt = format or guess_surface_format(file, head)
+    options = {"dx": dx, "dy": dy, "height_unit": height_unit, "distance_unit": distance_unit,
+               "x_column": x_column, "y_column": y_column, "z_column": z_column}
+    try:
+        if fmt == "npy":
+            surface = read_npy_surface(file, name, options)
+        elif fmt == "crg":
+            surface = read_crg(file, name, options)
+        else:
+            surface = read_long_table(file, name, fmt, options)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        if str(exc).startswith(name):
+            raise
+        raise type(exc)(f"{name}: {exc}") from None
+    return surface
+
+
+def finish(name: str, fmt: str, heights: np.ndarray, dx: float, dy: float, metadata: dict, history: list[str],
+           x0: float = 0.0, y0: float = 0.0) -> Surface:
+    """The :class:`Surface` a reader found (heights m, spacings and origin m), with its history line."""
+    if np.isinf(heights).any():
+        raise ProfileFormatError(f"{name}: holds an infinite or overflowing height")
+    if np.isnan(heights).all():
+        raise ProfileFormatError(f"{name}: all {heights.size} heights are drop-outs (NaN)")
+    metadata.setdefault("source", name)
+    history.append(f"read_surface({name!r}, format={fmt!r}): {heights.shape[0]} x {heights.shape[1]} readings, "
+                   f"dx {format_number(dx)} m, dy {format_number(dy)} m, "
+                   f"{int(np.count_nonzero(np.isnan(heights)))} drop-outs")
+    return Surface(heights, dx, dy, metadata, tuple(history), x0, y0)
+
+
+def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
+    """A 2-D ``.npy`` array and its optional JSON sidecar; see :func:`read_surface`."""
+    try:
+        array = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise ProfileFormatError(f"{name}: not a readable .npy array: {exc}") from None
+    if array.dtype.kind not in "fiu" or array.size == 0:
+        raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {array.dtype} and {array.size} values")
+    if array.ndim != 2 or array.shape[1] < 2:
+        raise ProfileFormatError(f"{name}: a surface .npy must be 2-D [rows across, columns along] with at least "
+                                 f"2 columns, got shape {array.shape} (a line profile? use read_profile)")
+    metadata: dict[str, object] = {"format": "npy"}
+    history: list[str] = []
+    sidecar = path.with_name(path.name + ".json")
+    if sidecar.exists():
+        try:
+            stored = json.loads(sidecar.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ProfileFormatError(f"{sidecar.name}: damaged metadata file: {exc}") from None
+        metadata.update(stored.get("metadata", {}))
+        history.extend(stored.get("history", []))
+        for key in ("dx", "dy", "height_unit"):
+            if options.get(key) is None:
+                options[key] = stored.get(key)
+    if options.get("dx") is None:
+        raise InvalidInputError("a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx)")
+    dx = positive(options["dx"], "dx")
+    dy = positive(options["dy"], "dy") if options.get("dy") is not None else dx
+    factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
+    return finish(name, "npy", array.astype(np.float64) * factor, dx, dy, metadata, history)
+
+
+def grid_index(values: np.ndarray, given: float | None, what: str, name: str) -> tuple[np.ndarray, float, float]:
+    """Index of each position on a regular grid, the spacing and the first node; refuses non-grids."""
+    unique = np.unique(values)
+    if unique.size < 2 and given is None:
+        raise ProfileFormatError(f"{name}: every {what} position is {unique[0]:.6g} m: give the spacing d{what}")
+    if given is not None:
+        step = positive(given, f"d{what}")
+    else:
+        step = float(np.min(np.diff(unique)))
+    start = float(unique[0])
+    scaled = (values - start) / step
+    index = np.rint(scaled)
+    off = np.abs(scaled - index)
+    if off.max() > GRID_TOLERANCE:
+        bad = int(np.argmax(off))
+        raise ProfileFormatError(f"{name}: not a regular grid: {what} = {values[bad]:.9g} m is not a multiple of "
+                                 f"the spacing {step:.6g} m from {start:.9g} m (give d{what}, or resample the "
+                                 "data onto a grid first)")
+    return index.astype(np.int64), step, start
+
+
+def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
+    """A Parquet or CSV table of (x, y, z) readings on a grid; see :func:`read_surface`."""
+    try:
+        if fmt == "parquet":
+            frame = pl.read_parquet(path)
+        else:
+            lines, _ = first_lines(path.read_bytes()[:65536], 50)
+            data_lines = [line for line in lines if line.strip() and not line.lstrip().startswith(b"#")]
+            separator = sniff_separator(data_lines)
+            if separator == " ":
+                raise ProfileFormatError(f"{name}: no tab, ';' or ',' separated columns found")
+            frame = pl.read_csv(path, separator=separator, comment_prefix="#", null_values=["", "NaN", "nan", "NA"],
+                                infer_schema_length=10000)
+    except ProfileFormatError:
+        raise
+    except Exception as exc:
+        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ProfileFormatError(f"{name}: not a readable {fmt} table: {message}") from None
+    if frame.height == 0:
+        raise ProfileFormatError(f"{name}: the table has no rows")
+    names = frame.columns
+    picked = []
+    for role, synonyms in (("x", X_NAMES), ("y", Y_NAMES), ("z", Z_NAMES)):
+        index = pick_column(names, options.get(f"{role}_column"), synonyms, role, True)
+        assert index is not None
+        picked.append(index)
+    if len(set(picked)) < 3:
+        raise ProfileFormatError(f"{name}: x, y and z must be three different columns, got {[names[i] for i in picked]}")
+
+    def column(index: int) -> np.ndarray:
+        series = frame.get_column(names[index])
+        if not series.dtype.is_numeric():
+            raise ProfileFormatError(f"{name}: column {names[index]!r} is {series.dtype}, not numeric")
+        return series.cast(pl.Float64).fill_null(float("nan")).to_numpy()
+
+    x = column(picked[0]) * column_unit(names, picked[0], options.get("distance_unit"), "distance")
+    y = column(picked[1]) * column_unit(names, picked[1], options.get("distance_unit"), "distance")
+    z = column(picked[2]) * column_unit(names, picked[2], options.get("height_unit"), "height")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ProfileFormatError(f"{name}: x and y must be finite on every row (drop-outs are missing z)")
+    ix, dx, x0 = grid_index(x, options.get("dx"), "x", name)
+    iy, dy, y0 = grid_index(y, options.get("dy"), "y", name)
+    shape = (int(iy.max()) + 1, int(ix.max()) + 1)
+    if shape[0] * shape[1] > 50 * x.size:
+        raise ProfileFormatError(f"{name}: the positions span a grid of {shape[0]} x {shape[1]} nodes for only "
+                                 f"{x.size} readings: not a grid")
+    flat = iy * shape[1] + ix
+    if np.unique(flat).size != flat.size:
+        raise ProfileFormatError(f"{name}: duplicate (x, y) positions: a grid has one reading per node")
+    heights = np.full(shape[0] * shape[1], np.nan)
+    heights[flat] = z
+    metadata: dict[str, object] = {"format": fmt}
+    return finish(name, fmt, heights.reshape(shape), dx, dy, metadata, [], x0, y0)
+
+
+def read_crg(path: Path, name: str, options: dict) -> Surface:
+    """An OpenCRG file through pycrg (heights relative to the reference line); see :func:`read_surface`."""
+    try:
+        import pycrg
+    except ImportError:
+        raise MissingDependencyError(f"{name}: reading OpenCRG (.crg) files needs the pycrg package "
+                                     "(pip install pycrg, or roadtex[crg]; it wraps the ASAM OpenCRG C library)") from None
+    try:
+        with pycrg.DataSet.open(str(path), apply_modifiers=False) as dataset:
+            grid = dataset.grid()
+            du, dv = dataset.increments()
+            header = dataset.header
+    except Exception as exc:
+        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ProfileFormatError(f"{name}: not a readable OpenCRG file: {message}") from None
+    v = np.asarray(grid.v, dtype=np.float64)
+    if v.size > 1:
+        steps = np.diff(v)
+        if np.ptp(steps) > GRID_TOLERANCE * float(np.mean(steps)):
+            raise ProfileFormatError(f"{name}: the long sections are not equally spaced across the road "
+                                     f"(v from {v[0]:.6g} to {v[-1]:.6g} m); a Surface needs a regular grid")
+        dy = float(np.mean(steps)) if options.get("dy") is None else positive(options["dy"], "dy")
+    else:
+        dy = positive(options["dy"], "dy") if options.get("dy") is not None else float(du)
+    dx = float(du) if options.get("dx") is None else positive(options["dx"], "dx")
+    factor = unit_factor(options.get("height_unit") or "m", "the CRG heights")
+    heights = np.asarray(grid.z, dtype=np.float64).T * factor
+    metadata: dict[str, object] = {"format": "crg", "crg_data_format": str(getattr(header, "data_format", "")),
+                                   "crg_comment": "\n".join(getattr(header, "comment", None) or [])}
+    return finish(name, "crg", heights, dx, dy, metadata, [], float(grid.u[0]), float(v[0]))

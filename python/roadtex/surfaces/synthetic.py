@@ -1,0 +1,189 @@
+"""Synthetic 3D road pavements: the line generator's pavements (:mod:`roadtex.profiles.pavements`)
+as surfaces, for tests and the demo.
+
+The same physical recipe, in two dimensions: aggregate stones are rounded ellipsoidal caps
+(random size from the kind's grading, random elongation and orientation) laid in staggered rows
+across the road with gamma-distributed clear gaps along it; the binder or mortar level fills the
+gaps; a triangulating laser's view limits the descent slope (along and across); fine texture and a
+little long-wave unevenness lie on everything; tined concrete gets transverse grooves (constant
+across the road). The kinds' parameters are the line generator's (``_DEFAULTS``), so the options
+are the same; two 2-D settings are added: ``row_pitch`` (distance between stone rows across the
+road, as a fraction of the mean stone size) and ``elongation`` (spread of stone shapes).
+
+Targets: the MPD (ISO 13473-1, :func:`roadtex.mpd`) of the surface's longitudinal lines lands in
+the ranges the line generator targets (its module docstring): dense asphalt 0.5 to 1.0 mm, porous
+asphalt 1.2 to 2.0 mm, surface dressing 1.5 to 3.0 mm, cement concrete 0.3 to 0.6 mm, tined
+concrete 0.6 to 1.2 mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from roadtex._checks import finite_number, positive
+from roadtex.errors import InvalidInputError
+from roadtex.profiles.pavements import _DEFAULTS, _KINDS, _tining
+from roadtex.surfaces.surface import Surface
+
+#: The 2-D settings per kind: stone rows across the road every ``row_pitch`` x the mean stone size;
+#: stones' across/along semi-axis ratio drawn from 1 -+ ``elongation``; ``depth_scale`` scales the
+#: binder depth (a line crosses a stone off its crest, where it is lower than its top, so the
+#: binder sits relatively deeper than along the line generator's crests).
+SURFACE_DEFAULTS: dict[str, dict[str, float]] = {
+    "dense_asphalt": dict(row_pitch=0.75, elongation=0.3, depth_scale=1.0),
+    "porous_asphalt": dict(row_pitch=0.8, elongation=0.3, depth_scale=0.75),
+    "surface_dressing": dict(row_pitch=0.8, elongation=0.3, depth_scale=1.0),
+    "cement_concrete": dict(row_pitch=0.8, elongation=0.3, depth_scale=1.0),
+}
+
+
+def synthetic_surface(kind: str, length: float, width: float, dx: float, dy: float | None = None, *,
+                      seed: int = 0, **options: float | bool) -> Surface:
+    """A reproducible synthetic road surface of a given pavement type.
+
+    Args:
+        kind: ``"cement_concrete"``, ``"dense_asphalt"``, ``"porous_asphalt"`` or
+            ``"surface_dressing"`` (chip seal), as :func:`roadtex.profiles.synthetic_pavement`.
+        length: length along the road (m), at least 10 dx.
+        width: width across the road (m), at least one dy.
+        dx: spacing along the road (m); ``dy``: across (m, default ``dx``).
+        seed: the random seed; the same (kind, length, width, dx, dy, seed, options) gives the
+            same surface.
+        options: the line generator's stone-layer options (metres; ``tining=True`` and its
+            settings for cement concrete) and the 2-D ones ``row_pitch``, ``elongation``,
+            ``depth_scale`` (see the module docstring).
+
+    Returns:
+        A NaN-free :class:`Surface` (heights m, mean zero) whose metadata names kind, seed and parameters.
+    """
+    if kind not in _KINDS:
+        raise InvalidInputError(f"unknown pavement kind {kind!r}; known kinds: {', '.join(_KINDS)}")
+    dx_f = positive(dx, "dx")
+    dy_f = dx_f if dy is None else positive(dy, "dy")
+    nx = int(round(positive(length, "length") / dx_f))
+    ny = max(1, int(round(positive(width, "width") / dy_f)))
+    if nx < 10:
+        raise InvalidInputError(f"length {length:g} m is fewer than 10 samples of dx {dx_f:g} m")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
+    p: dict[str, float | bool] = {**_DEFAULTS[kind], **SURFACE_DEFAULTS[kind]}
+    unknown = set(options) - set(p)
+    if unknown:
+        raise InvalidInputError(f"unknown option(s) {sorted(unknown)} for {kind}; known: {sorted(p)}")
+    for key, value in options.items():
+        if isinstance(p[key], bool):
+            if not isinstance(value, (bool, np.bool_)):
+                raise InvalidInputError(f"{key} must be True or False, got {value!r}")
+            p[key] = bool(value)
+        else:
+            number = finite_number(value, key)
+            if number < 0:
+                raise InvalidInputError(f"{key} must be >= 0, got {value!r}")
+            p[key] = number
+    if p["min_stone"] <= 0 or p["max_stone"] < p["min_stone"] or p["row_pitch"] <= 0:
+        raise InvalidInputError("need 0 < min_stone <= max_stone and row_pitch > 0")
+
+    rng = np.random.default_rng([int(seed), _KINDS.index(kind), 3])
+    x = dx_f * np.arange(nx)
+    z = stone_layer(nx, ny, dx_f, dy_f, rng, p)
+    if kind == "cement_concrete" and p["tining"]:
+        z -= _tining(x, rng, p)[None, :]
+    z = limit_slope(z, dx_f, dy_f, float(p["max_slope"]))
+    z += correlated_noise((ny, nx), dx_f, dy_f, float(p["fine_correlation"]), rng) * float(p["fine_sd"])
+    z += correlated_noise((ny, nx), dx_f, dy_f, 0.15, rng) * float(p["unevenness_sd"])
+    z -= z.mean()
+    settings = ", ".join(f"{k}={v}" for k, v in options.items())
+    step = (f"synthetic_surface({kind!r}, length={nx * dx_f:g} m, width={ny * dy_f:g} m, dx={dx_f:g} m, "
+            f"dy={dy_f:g} m, seed={int(seed)}{', ' + settings if settings else ''})")
+    metadata: dict[str, object] = {"synthetic": True, "kind": kind, "seed": int(seed), "device": "roadtex.surfaces",
+                                   **{k: (bool(v) if isinstance(v, bool) else float(v)) for k, v in p.items()}}
+    return Surface(z, dx_f, dy_f, metadata, (step,))
+
+
+def stone_layer(nx: int, ny: int, dx: float, dy: float, rng: np.random.Generator, p: dict) -> np.ndarray:
+    """Ellipsoidal stone caps in staggered rows across the road, the binder level between them."""
+    binder = -float(p["binder_depth"]) * float(p["depth_scale"])
+    z = np.full((ny, nx), binder)
+    lo, hi = float(p["min_stone"]), float(p["max_stone"])
+    mean_size = lo + (hi - lo) / (1.0 + float(p["grading"]))
+    pitch_y = float(p["row_pitch"]) * mean_size
+    total_x, total_y = nx * dx + 2 * hi, ny * dy + 2 * hi
+    n_rows = int(total_y / pitch_y) + 2
+    per_row = int(total_x / (mean_size + float(p["gap_mean"])) * 1.3) + 8
+    shape = max(float(p["gap_shape"]), 1e-3)
+    stones = []
+    for row in range(n_rows):
+        sizes = lo + (hi - lo) * rng.random(per_row) ** float(p["grading"])
+        gaps = rng.gamma(shape, float(p["gap_mean"]) / shape, per_row) if p["gap_mean"] > 0 else np.zeros(per_row)
+        lefts = -hi - hi * rng.random() + np.concatenate([[0.0], np.cumsum(sizes + gaps)[:-1]])
+        centres_x = lefts + 0.5 * sizes
+        centres_y = -hi + (row + 0.5) * pitch_y + 0.25 * pitch_y * rng.uniform(-1.0, 1.0, per_row)
+        ratios = 1.0 + float(p["elongation"]) * rng.uniform(-1.0, 1.0, per_row)
+        angles = rng.uniform(0.0, np.pi, per_row)
+        tops = rng.normal(0.0, float(p["top_sd"]), per_row)
+        keep = centres_x - hi < nx * dx
+        stones.append(np.column_stack([centres_x, centres_y, 0.5 * sizes, 0.5 * sizes * ratios, angles, tops])[keep])
+    draw_stones(z, dx, dy, np.concatenate(stones), float(p["aspect"]))
+    return z
+
+
+def draw_stones(z: np.ndarray, dx: float, dy: float, stones: np.ndarray, aspect: float) -> None:
+    """Raises ``z`` to the caps of ellipsoidal stones, in place. ``stones`` rows: centre x, y,
+    horizontal semi-axes a (along before rotation), b, rotation angle, crest height (all m; angle
+    rad); the vertical semi-axis is ``aspect`` x a. Stones are drawn in batches on padded bounding
+    boxes (the larger ones first), overlaps resolved by the maximum."""
+    order = np.argsort(-np.maximum(stones[:, 2], stones[:, 3]), kind="stable")
+    stones = stones[order]
+    flat = z.reshape(-1)
+    ny, nx = z.shape
+    start = 0
+    while start < len(stones):
+        reach = float(np.max(stones[start, 2:4]))
+        rx, ry = int(np.ceil(reach / dx)) + 1, int(np.ceil(reach / dy)) + 1
+        box = (2 * ry + 1) * (2 * rx + 1)
+        batch = stones[start:start + max(1, 2_000_000 // box)]
+        start += len(batch)
+        cx, cy, a, b, angle, top = (batch[:, k][:, None, None] for k in range(6))
+        i = np.rint(cx / dx).astype(np.int64) + np.arange(-rx, rx + 1)[None, None, :]
+        j = np.rint(cy / dy).astype(np.int64) + np.arange(-ry, ry + 1)[None, :, None]
+        u, v = dx * i - cx, dy * j - cy
+        cos, sin = np.cos(angle), np.sin(angle)
+        q = ((u * cos + v * sin) / a) ** 2 + ((v * cos - u * sin) / b) ** 2
+        inside = (q <= 1.0) & (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        cap = top + aspect * a * (np.sqrt(np.clip(1.0 - q, 0.0, None)) - 1.0)
+        index = np.broadcast_to(j * nx + i, q.shape)[inside]
+        np.maximum.at(flat, index, cap[inside])
+
+
+def limit_slope(z: np.ndarray, dx: float, dy: float, slope: float) -> np.ndarray:
+    """The least surface above z that never falls away steeper than ``slope`` along x or across y
+    from any point (a grey dilation by a pyramid: the 1-D cone of the line generator along the
+    rows, then down the columns), as a triangulating laser sees it."""
+    if slope <= 0:
+        return z
+    out = z
+    for axis, step in ((1, dx), (0, dy)):
+        n = out.shape[axis]
+        if n < 2:
+            continue
+        s = slope * step * np.arange(n)
+        s = s[None, :] if axis == 1 else s[:, None]
+        forward = np.maximum.accumulate(out + s, axis=axis) - s
+        flipped = np.flip(out - s, axis=axis)
+        backward = np.flip(np.maximum.accumulate(flipped, axis=axis), axis=axis) + s
+        out = np.maximum(forward, backward)
+    return out
+
+
+def correlated_noise(shape: tuple[int, int], dx: float, dy: float, correlation: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """Unit-variance Gaussian noise with a Gaussian autocorrelation of length ``correlation`` (m)."""
+    white = rng.standard_normal(shape)
+    if correlation <= min(dx, dy):
+        return white
+    kx = np.fft.rfftfreq(shape[1], dx)[None, :]
+    ky = np.fft.fftfreq(shape[0], dy)[:, None]
+    filt = np.exp(-(np.pi * correlation) ** 2 * (kx * kx + ky * ky) / 2.0)
+    shaped = np.fft.irfft2(np.fft.rfft2(white) * filt, shape)
+    sd = shaped.std()
+    return shaped / sd if sd > 0 else shaped
