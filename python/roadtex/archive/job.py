@@ -44,6 +44,7 @@ from roadtex.archive.store import (
     write_atomically,
     write_json,
 )
+from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
 
@@ -114,7 +115,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
     try:
-        tables = compute_run(run, options, threads=threads)
+        compute = compute_surface_run if is_surface_run(run) else compute_run
+        tables = compute(run, options, threads=threads)
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)
@@ -174,7 +176,9 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
-    plan, study = plan_job(runs, options, threads=threads)
+    # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
+    # and their own spacings
+    plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
     resolved = plan.resolved(options)
     progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
@@ -274,7 +278,10 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFr
         errors = {} if plan is None else {b: e for b, e in plan.band_error_db.items() if np.isfinite(e)}
         frame = pl.DataFrame({"band": list(errors), "level_error_db": list(errors.values())},
                              schema={"band": pl.Int64, "level_error_db": pl.Float64})
-        return query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+        joined = query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+        # the pilot measures the line model only: areal rows have no error estimate
+        return joined.with_columns(pl.when(pl.col("model") == "areal").then(None)
+                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"))
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in

@@ -34,6 +34,8 @@ MANIFEST_COLUMNS: dict[str, type[pl.DataType] | pl.DataType] = {
 READER_COLUMNS: dict[str, type[pl.DataType]] = {
     name: {str: pl.String, float: pl.Float64, bool: pl.Boolean}[kind] for name, kind in READ_OPTIONS.items()
 }
+#: ``dy`` (m): the spacing across the road of a surface run's 2-D heights file (``dx`` is along it).
+READER_COLUMNS["dy"] = pl.Float64
 #: Metadata columns copied from the manifest into every segment row.
 METADATA_COLUMNS = ("site", "lane", "wheel_path", "date", "device", "direction", "pavement", "speed_kmh")
 #: Prefix of optional measured-noise columns: ``noise_<centre frequency in Hz>`` in dB, e.g.
@@ -48,7 +50,9 @@ _METADATA: Columns = {name: ((pl.Float64(), "km/h") if name == "speed_kmh" else 
 
 SEGMENT_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
-    "segment": (pl.Int64(), "count"),
+    "model": (pl.String(), None),                 # "line" (line model) or "areal" (surface runs' areal model)
+    "segment": (pl.Int64(), "count"),             # segment of a line run; tile (along the road) of a surface run
+    "line": (pl.Int64(), "count"),                # surface runs: row of the surface (null: line runs, areal tiles)
     "youngs_modulus": (pl.Float64(), "Pa"),
     "start": (pl.Float64(), "m"),                 # position of the segment's first point in the run
     "end": (pl.Float64(), "m"),                   # start + segment length
@@ -66,7 +70,9 @@ SEGMENT_COLUMNS: Columns = {
 }
 BAND_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
-    "segment": (pl.Int64(), "count"),
+    "model": (pl.String(), None),                 # "line" (line model) or "areal" (surface runs' areal model)
+    "segment": (pl.Int64(), "count"),             # segment of a line run; tile (along the road) of a surface run
+    "line": (pl.Int64(), "count"),                # surface runs: row of the surface (null: line runs, areal tiles)
     "youngs_modulus": (pl.Float64(), "Pa"),
     "band": (pl.Int64(), "1"),                    # ISO band index n: centre 1000 / 10^(n/10) mm
     "label": (pl.String(), None),                 # nominal centre wavelength as acousticians write it (mm)
@@ -78,6 +84,7 @@ BAND_COLUMNS: Columns = {
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
+                                                  # (the line-run pilot's; null for areal rows: not budgeted)
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
