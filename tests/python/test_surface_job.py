@@ -93,3 +93,18 @@ def test_manifest_rejects_nonpositive_dy(tmp_path):
     np.save(path, np.zeros((3, 30)))
     with pytest.raises(ManifestError, match="dy"):
         process(pl.DataFrame({"path": [str(path)], "format": ["surface"], "dy": [-1.0]}), tmp_path / "out", OPTIONS)
+
+
+def test_surface_example_is_the_middle_tile(tmp_path):
+    surface = synthetic_surface("dense_asphalt", 0.6, 0.03, 1e-3, seed=4)
+    run_job(tmp_path, surface.heights)
+    example = pl.read_parquet(tmp_path / "out" / "surface_examples.parquet")
+    assert example["segment"].unique().to_list() == [1]
+    assert example["youngs_modulus"].unique().to_list() == [5e6]     # middle of (2e6, 5e6) by index 1
+    assert example.height == 200 * 30
+    # the rubber never goes below the road; it touches where there is pressure
+    gap = (example["envelope"] - example["height"]).to_numpy()
+    assert gap.min() > -1e-9
+    touching = example["pressure"].to_numpy() > 0
+    assert np.abs(gap[touching]).max() < 1e-6
+    assert abs(example["pressure"].mean() - OPTIONS.mean_pressure) < 1e-6 * OPTIONS.mean_pressure

@@ -29,6 +29,7 @@ from roadtex.archive.schemas import (
     RUN_RUN_SCHEMA,
     RUN_SCHEMA,
     SEGMENT_SCHEMA,
+    SURFACE_EXAMPLE_SCHEMA,
     TABLES,
     parquet_metadata,
     units,
@@ -127,7 +128,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
-    for stale in ("example", "segments", "bands", "run", "profiles"):
+    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example"):
         if status["state"] != "ok" or (stale == "profiles" and not options.keep_profiles):
             (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
     write_json(run_dir / STATUS_FILE, status)
@@ -218,7 +219,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     """
     out = Path(out_dir)
     options_fingerprint = options.fingerprint()
-    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": []}
+    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": []}
     errors: list[dict[str, Any]] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
@@ -233,8 +234,11 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         parts["runs"].append(run_dir / "run.parquet")
         if (run_dir / "example.parquet").exists():
             parts["examples"].append(run_dir / "example.parquet")
-    schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
-    combined = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
+        if (run_dir / "surface_example.parquet").exists():
+            parts["surface_examples"].append(run_dir / "surface_example.parquet")
+    schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
+               "surface_examples": SURFACE_EXAMPLE_SCHEMA}
+    combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"

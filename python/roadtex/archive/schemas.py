@@ -156,6 +156,18 @@ EXAMPLE_COLUMNS: Columns = {
     "envelope": (pl.Float64(), "m"),              # enveloped profile
     "pressure": (pl.Float64(), "Pa"),             # contact pressure
 }
+SURFACE_EXAMPLE_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),             # the surface run's middle tile
+    "youngs_modulus": (pl.Float64(), "Pa"),       # the job's middle modulus
+    "dx": (pl.Float64(), "m"),                    # along the road
+    "dy": (pl.Float64(), "m"),                    # across the road
+    "x": (pl.Float64(), "m"),                     # along the run
+    "y": (pl.Float64(), "m"),                     # across the surface
+    "height": (pl.Float64(), "m"),                # the tile as solved (its plane removed)
+    "envelope": (pl.Float64(), "m"),              # enveloped surface (areal model)
+    "pressure": (pl.Float64(), "Pa"),             # contact pressure (areal model)
+}
 EDGE_EFFECT_COLUMNS: Columns = {
     "model": (pl.String(), None),                 # "finite", "periodic" or "flat punch (exact)"
     "index": (pl.Int64(), "count"),               # element
@@ -189,6 +201,7 @@ ERROR_SCHEMA = schema(ERROR_COLUMNS)
 PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
 EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
 EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
+SURFACE_EXAMPLE_SCHEMA = schema(SURFACE_EXAMPLE_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
@@ -200,5 +213,5 @@ RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUM
 TABLES: dict[str, Columns] = {
     "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,
     "profiles": PROFILE_COLUMNS, "examples": EXAMPLE_COLUMNS, "edge_effect": EDGE_EFFECT_COLUMNS,
-    "pilot": PILOT_COLUMNS,
+    "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS,
 }

@@ -27,7 +27,13 @@ import polars as pl
 
 from roadtex.archive.compute import run_stage, segment_mpd
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.schemas import METADATA_COLUMNS, RUN_BAND_SCHEMA, RUN_RUN_SCHEMA, SEGMENT_SCHEMA
+from roadtex.archive.schemas import (
+    METADATA_COLUMNS,
+    RUN_BAND_SCHEMA,
+    RUN_RUN_SCHEMA,
+    SEGMENT_SCHEMA,
+    SURFACE_EXAMPLE_SCHEMA,
+)
 from roadtex.errors import InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
@@ -101,7 +107,8 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
 
     Returns:
         The run's tables (``segments``, ``bands``, ``run``; ``example`` is None), as line runs
-        give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface.
+        give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface,
+        and ``surface_example``: the middle tile solved at the middle modulus (for the report).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
@@ -219,6 +226,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     level_columns = ["texture_level", "enveloped_level", "pressure_level"]
     return {
         "example": None,
+        "surface_example": surface_example(run["run_id"], tiles, areal, moduli),
         "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
@@ -258,3 +266,20 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, spike
         "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],
         "mpd_baselines": [int(sum(int(d.segments.height) for d in depths))],
     }, schema=RUN_RUN_SCHEMA)
+
+
+def surface_example(run_id: str, tiles: Any, areal: Any, moduli: np.ndarray) -> pl.DataFrame:
+    """The middle tile's heights, enveloped surface and pressure map at the middle modulus
+    (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws without re-solving."""
+    tile = len(tiles) // 2
+    k = int(np.argsort(moduli)[moduli.size // 2])
+    _, n_y, n_x = tiles.heights.shape
+    x = tiles.x0 + tiles.dx * (tiles.column_starts[tile] + np.arange(n_x))
+    y = tiles.y0 + tiles.dy * (tiles.row_starts[tile] + np.arange(n_y))
+    count = n_x * n_y
+    return pl.DataFrame({
+        "run_id": [run_id] * count, "segment": np.full(count, tile), "youngs_modulus": np.full(count, moduli[k]),
+        "dx": np.full(count, tiles.dx), "dy": np.full(count, tiles.dy),
+        "x": np.tile(x, n_y), "y": np.repeat(y, n_x), "height": tiles.heights[tile].ravel(),
+        "envelope": areal.envelope[tile, k].ravel(), "pressure": areal.pressure[tile, k].ravel(),
+    }, schema=SURFACE_EXAMPLE_SCHEMA)
