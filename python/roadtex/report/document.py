@@ -56,10 +56,17 @@ from roadtex.report.data import (
 from roadtex.report.error_budget import band_error_table, budget_summary, fig_setting_speed_vs_error, pilot_state
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
-from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, fig_line_vs_areal, fig_surface_tiles
+from roadtex.report.surface_figures import (
+    AGREEMENT_DB,
+    SURFACE_FIGURES,
+    agreement_table,
+    fig_line_vs_areal,
+    fig_surface_tiles,
+)
 
 #: Figure order and captions in the report (without their number: a figure's number is its place in
-#: the document). ``{envelopes}`` stands for the number of the enveloped-profiles figure.
+#: the document); the 3D-surface figures, drawn only for surface runs, follow (:data:`SURFACE_FIGURES`).
+#: ``{envelopes}`` stands for the number of the enveloped-profiles figure.
 FIGURES: dict[str, str] = {
     "von_meier": "von Meier et al. envelopes at several curvature limits d* on one profile.",
     "edge_effect": "The edge effect: pressure on a flat profile, finite sample against the periodic model.",
@@ -81,10 +88,6 @@ FIGURES: dict[str, str] = {
         "by solver work (iterations × N log₂ N), which the machine's load does not move; the times shown are "
         "measured."),
     "speed_vs_error": "Solver speed against error (from the benchmark data).",
-    "surface_tiles": ("3D surfaces: one tile per pavement, its enveloped surface (mm, areal model) and its "
-                      "contact pressure map (MPa), at the job's middle E."),
-    "line_vs_areal": ("3D surfaces: line model minus areal model enveloped level (dB) per band and E, mean over "
-                      "the tiles and lines of each pavement; the grey band is ±0.5 dB."),
 }
 #: The figure of the INRETS report (the seed) that each figure reproduces.
 SEED_FIGURES: dict[str, str] = {
@@ -142,10 +145,11 @@ def captions(names: list[str], notes: dict[str, str] | None = None) -> dict[str,
     seed figure it reproduces: "Figure 3: ... (reproduces figure 4.1 of the INRETS report).", and
     the sentence ``notes[name]`` after it when given."""
     numbers = {name: index + 1 for index, name in enumerate(names)}
-    fields = {name: numbers.get(name, "?") for name in FIGURES}
+    known = {**FIGURES, **SURFACE_FIGURES}
+    fields = {name: numbers.get(name, "?") for name in known}
     out = {}
     for name in names:
-        text = FIGURES[name].format(**fields)
+        text = known[name].format(**fields)
         if name in SEED_FIGURES:
             text = f"{text[:-1]} (reproduces figure {SEED_FIGURES[name]} of the INRETS report)."
         if notes and notes.get(name):

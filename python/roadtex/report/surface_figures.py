@@ -10,6 +10,13 @@ import polars as pl
 
 from roadtex.report.data import COLOURS, MM, Results, legend_outside, modulus_label
 
+#: Captions of the 3D-surface figures (after the seed's figures; drawn only when the results hold areal rows).
+SURFACE_FIGURES: dict[str, str] = {
+    "surface_tiles": ("3D surfaces: one tile per pavement, its enveloped surface (mm, areal model) and its "
+                      "contact pressure map (MPa), at the job's middle E."),
+    "line_vs_areal": ("3D surfaces: line model minus areal model enveloped level (dB) per band and E, mean over "
+                      "the tiles and lines of each pavement; the grey band is ±0.5 dB."),
+}
 #: The line model "agrees" with the areal one in a band when its mean enveloped level is within this (dB).
 AGREEMENT_DB = 0.5
 
