@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
 import polars as pl
 
 from roadtex._core import __version__
@@ -17,6 +18,7 @@ from roadtex.errors import ArchiveWriteError, ManifestError
 from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.profiles.writer import write_profile
 from roadtex.report import build_report
+from roadtex.surfaces.synthetic import synthetic_surface
 
 #: The seed's three pavements, the built-in demo archive.
 DEMO_PAVEMENTS = ("cement_concrete", "dense_asphalt", "porous_asphalt")
@@ -24,7 +26,9 @@ DEMO_PAVEMENTS = ("cement_concrete", "dense_asphalt", "porous_asphalt")
 
 def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[str] = DEMO_PAVEMENTS,
                             runs_per_kind: int = 2, run_length: float = 4.0, dx: float = 5e-4,
-                            file_format: str = "parquet", speed_kmh: float = 80.0, seed: int = 0) -> Path:
+                            file_format: str = "parquet", speed_kmh: float = 80.0, seed: int = 0,
+                            surfaces_per_kind: int = 0, surface_size: tuple[float, float] = (0.5, 0.04),
+                            surface_dx: float = 1e-3) -> Path:
     """Writes an archive of synthetic pavement runs (:func:`roadtex.pavements.synthetic_pavement`)
     as profile files plus ``manifest.csv``, as a survey would deliver it.
 
@@ -37,6 +41,10 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
         file_format: "parquet", "csv" or "npy".
         speed_kmh: the speed written into the manifest (km/h), for band frequencies.
         seed: seed of the first run; run i uses seed + i.
+        surfaces_per_kind: 3D surface runs of each kind (:func:`roadtex.surfaces.synthetic_surface`),
+            saved as 2-D ``.npy`` heights (m) with ``format`` "surface" and ``dx``, ``dy`` manifest columns.
+        surface_size: (length along, width across) of each surface (m).
+        surface_dx: the surfaces' spacing along and across (m).
 
     Returns:
         The manifest's path. An archive already written there with the same arguments is kept as
@@ -46,7 +54,7 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
     root.mkdir(parents=True, exist_ok=True)
     suffix = {"parquet": ".parquet", "csv": ".csv", "npy": ".npy"}[file_format]
     recipe = {"kinds": list(kinds), "run_length": run_length, "dx": dx, "seed": seed, "format": file_format,
-              "roadtex": __version__}
+              "roadtex": __version__, "surfaces": [surfaces_per_kind, list(surface_size), surface_dx]}
     stamp = root / "archive.json"
     try:
         same = json.loads(stamp.read_text()) == recipe
@@ -61,8 +69,18 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
             write_profile(synthetic_pavement(kind, run_length, dx, seed=seed + i), path)
         rows.append({"path": path.name, "run_id": run_id, "site": f"synthetic-{run_id}", "pavement": kind,
                      "device": "roadtex synthetic pavement generator", "speed_kmh": speed_kmh})
+    for i in range(surfaces_per_kind * len(kinds)):
+        kind = kinds[i % len(kinds)]
+        run_id = f"{kind}_surface_{i // len(kinds) + 1:03d}"
+        path = root / f"{run_id}.npy"
+        if not (same and path.exists()):
+            surface = synthetic_surface(kind, surface_size[0], surface_size[1], surface_dx, seed=seed + 1000 + i)
+            np.save(path, surface.heights)
+        rows.append({"path": path.name, "run_id": run_id, "format": "surface", "dx": surface_dx, "dy": surface_dx,
+                     "site": f"synthetic-{run_id}", "pavement": kind,
+                     "device": "roadtex synthetic surface generator", "speed_kmh": speed_kmh})
     manifest = root / "manifest.csv"
-    pl.DataFrame(rows).write_csv(manifest)
+    pl.DataFrame(rows, infer_schema_length=None).write_csv(manifest)
     stamp.write_text(json.dumps(recipe))
     return manifest
 
@@ -78,9 +96,11 @@ def run_demo(out: Path, *, runs: int = 2, run_length: float = 4.0, moduli_mpa: S
     """
     started = time.perf_counter()
     if manifest_path is None:
-        manifest = write_synthetic_archive(out / "archive", runs_per_kind=runs, run_length=run_length)
+        manifest = write_synthetic_archive(out / "archive", runs_per_kind=runs, run_length=run_length,
+                                           surfaces_per_kind=1)
         print(f"roadtex demo: wrote a synthetic archive of cement concrete, dense asphalt and porous asphalt, "
-              f"{runs} run(s) of {run_length:g} m each at 0.5 mm sampling -> {manifest}")
+              f"{runs} run(s) of {run_length:g} m each at 0.5 mm sampling and one 3D surface run of each "
+              f"(0.5 m x 40 mm at 1 mm) -> {manifest}")
     else:
         manifest = Path(manifest_path)
         print(f"roadtex demo: processing the archive listed in {manifest}")

@@ -177,7 +177,7 @@ def test_main_job_runs_end_to_end(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-m", "roadtex.cli", "demo", "--out", str(tmp_path), "--runs", "1",
                            "--run-length", "1.0", "--quiet"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
-    assert "3 processed" in done.stdout and "report with" in done.stdout
+    assert "6 processed" in done.stdout and "report with" in done.stdout   # 3 line runs, 3 surface runs
     assert (tmp_path / "report" / "report.html").stat().st_size > 50_000
     assert "No failed runs" in (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
     segments = pl.read_parquet(tmp_path / "results" / "segments.parquet")
@@ -185,7 +185,7 @@ def test_main_job_runs_end_to_end(tmp_path: Path) -> None:
     # Run again on the same output: nothing to recompute.
     again = subprocess.run([sys.executable, "-m", "roadtex.cli", "demo", "--out", str(tmp_path), "--runs", "1",
                             "--run-length", "1.0", "--quiet"], capture_output=True, text=True, timeout=600)
-    assert again.returncode == 0 and "0 processed, 3 already done" in again.stdout
+    assert again.returncode == 0 and "0 processed, 6 already done" in again.stdout
 
 
 # --------------------------------------------------------------------------------------------------

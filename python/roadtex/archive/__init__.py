@@ -21,11 +21,15 @@ levels and mean profile depth, and writes tables (schemas below). It is built to
 
 Combined tables in ``OUT`` (rewritten atomically at the end of every job, in manifest order):
 
-``segments.parquet`` — one row per (run, segment, modulus), :data:`SEGMENT_SCHEMA`.
-``bands.parquet`` — one row per (run, segment, modulus, band), :data:`BAND_SCHEMA`.
+``segments.parquet`` — one row per (run, segment, modulus), :data:`SEGMENT_SCHEMA`; surface runs
+(:mod:`~roadtex.archive.surface_run`) add a row per (model, tile, line, modulus): ``model`` "line" or "areal".
+``bands.parquet`` — one row per (run, segment, modulus, band), :data:`BAND_SCHEMA` (surface runs: per
+(model, tile, line, modulus, band)).
 ``errors.parquet`` — one row per failed run, :data:`ERROR_SCHEMA`.
 ``runs.parquet`` — one row per processed run (points, length, MPD of the whole run), :data:`RUN_SCHEMA`.
 ``examples.parquet`` — each run's middle segment, solved at every modulus, :data:`EXAMPLE_SCHEMA` (for the report).
+``surface_examples.parquet`` — each surface run's middle tile at the middle modulus: heights, enveloped
+surface, pressure map, :data:`SURFACE_EXAMPLE_SCHEMA` (for the report).
 ``edge_effect.parquet`` — the seed's figure 3.1 at the job's load, :data:`EDGE_EFFECT_SCHEMA`.
 ``parameters.json`` — the options, their fingerprint, and the software versions.
 Profiles (``keep_profiles=True``): ``OUT/runs/<run_id>/profiles.parquet`` per run, schema
@@ -33,6 +37,7 @@ Profiles (``keep_profiles=True``): ``OUT/runs/<run_id>/profiles.parquet`` per ru
 
 Modules: :mod:`~roadtex.archive.schemas` (tables), :mod:`~roadtex.archive.options`,
 :mod:`~roadtex.archive.manifest`, :mod:`~roadtex.archive.compute` (one run),
+:mod:`~roadtex.archive.surface_run` (one surface run: areal and line models),
 :mod:`~roadtex.archive.store` (atomic files, status), :mod:`~roadtex.archive.engines` (local, Dask,
 progress) and :mod:`~roadtex.archive.job` (the job, combined tables).
 """
@@ -52,11 +57,14 @@ from roadtex.archive.schemas import (
                                      PROFILE_SCHEMA,
                                      RUN_SCHEMA,
                                      SEGMENT_SCHEMA,
+                                     SURFACE_EXAMPLE_SCHEMA,
 )
 from roadtex.archive.store import file_sha256, remove_outputs
+from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.errors import ArchiveWriteError, ManifestError
 
 __all__ = ["compute_run", "ProcessSummary", "combine", "process", "process_run", "read_profiles", "software_versions",
            "build_manifest", "read_manifest", "ProcessingOptions", "BAND_SCHEMA", "EDGE_EFFECT_SCHEMA", "ERROR_SCHEMA",
            "EXAMPLE_SCHEMA", "MANIFEST_COLUMNS", "METADATA_COLUMNS", "NOISE_PREFIX", "PROFILE_SCHEMA", "RUN_SCHEMA",
-           "SEGMENT_SCHEMA", "file_sha256", "remove_outputs", "ArchiveWriteError", "ManifestError"]
+           "SEGMENT_SCHEMA", "SURFACE_EXAMPLE_SCHEMA", "compute_surface_run", "is_surface_run",
+           "file_sha256", "remove_outputs", "ArchiveWriteError", "ManifestError"]

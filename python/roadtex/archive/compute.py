@@ -130,7 +130,9 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         mod_index = np.tile(np.arange(n_moduli), count)
         columns = {
             "run_id": [run["run_id"]] * seg_index.size,
+            "model": ["line"] * seg_index.size,
             "segment": seg_index,
+            "line": [None] * seg_index.size,
             "youngs_modulus": moduli[mod_index],
             "start": segments.starts[seg_index],
             "end": segments.starts[seg_index] + segments.length,
@@ -158,7 +160,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "texture_level": texture.levels[seg_index].ravel(),
             "enveloped_level": enveloped.levels.ravel(),
             "pressure_level": pressure.levels.ravel(),
-        }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id")).select(
+        }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id"), pl.lit("line").alias("model"),
+                        pl.lit(None, dtype=pl.Int64).alias("line")).select(
             [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
 
     level_columns = ["texture_level", "enveloped_level", "pressure_level"]

@@ -29,6 +29,7 @@ from roadtex.archive.schemas import (
     RUN_RUN_SCHEMA,
     RUN_SCHEMA,
     SEGMENT_SCHEMA,
+    SURFACE_EXAMPLE_SCHEMA,
     TABLES,
     parquet_metadata,
     units,
@@ -44,6 +45,7 @@ from roadtex.archive.store import (
     write_atomically,
     write_json,
 )
+from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
 
@@ -114,7 +116,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
     try:
-        tables = compute_run(run, options, threads=threads)
+        compute = compute_surface_run if is_surface_run(run) else compute_run
+        tables = compute(run, options, threads=threads)
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)
@@ -125,7 +128,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
-    for stale in ("example", "segments", "bands", "run", "profiles"):
+    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example"):
         if status["state"] != "ok" or (stale == "profiles" and not options.keep_profiles):
             (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
     write_json(run_dir / STATUS_FILE, status)
@@ -174,7 +177,9 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
-    plan, study = plan_job(runs, options, threads=threads)
+    # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
+    # and their own spacings
+    plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
     resolved = plan.resolved(options)
     progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
@@ -214,7 +219,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     """
     out = Path(out_dir)
     options_fingerprint = options.fingerprint()
-    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": []}
+    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": []}
     errors: list[dict[str, Any]] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
@@ -229,8 +234,11 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         parts["runs"].append(run_dir / "run.parquet")
         if (run_dir / "example.parquet").exists():
             parts["examples"].append(run_dir / "example.parquet")
-    schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
-    combined = {"segments": SEGMENT_SCHEMA, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA, "examples": EXAMPLE_SCHEMA}
+        if (run_dir / "surface_example.parquet").exists():
+            parts["surface_examples"].append(run_dir / "surface_example.parquet")
+    schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
+               "surface_examples": SURFACE_EXAMPLE_SCHEMA}
+    combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
@@ -274,7 +282,10 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFr
         errors = {} if plan is None else {b: e for b, e in plan.band_error_db.items() if np.isfinite(e)}
         frame = pl.DataFrame({"band": list(errors), "level_error_db": list(errors.values())},
                              schema={"band": pl.Int64, "level_error_db": pl.Float64})
-        return query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+        joined = query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+        # the pilot measures the line model only: areal rows have no error estimate
+        return joined.with_columns(pl.when(pl.col("model") == "areal").then(None)
+                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"))
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in

@@ -22,10 +22,12 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
 
     Columns: ``path`` (required; relative paths are taken from the manifest's folder or
     ``base_dir``), optional ``run_id`` (default: the file name without suffix; must be unique),
-    ``format`` (as for :func:`roadtex.read_profile`; default: guessed), the metadata columns
+    ``format`` (as for :func:`roadtex.read_profile`; default: guessed; ``surface`` makes the run a
+    3D surface run read by :func:`roadtex.read_surface`, as does a ``.crg`` file), the metadata columns
     :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h), reader options per run
     (:data:`READER_COLUMNS`: ``distance_unit``, ``height_unit``, ``delimiter``, ``decimal``, ``dx``
-    in m for heights-only files, ...; see :func:`roadtex.read_profile`) and measured noise levels
+    in m for heights-only files, ...; see :func:`roadtex.read_profile`; ``dy`` in m across the road
+    for surfaces) and measured noise levels
     ``noise_<band>`` (dB). Any other column must be named in ``extra_columns`` (it is then carried along unused).
 
     Returns:
@@ -84,7 +86,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                & pl.col(name).cast(pl.Float64, strict=False).is_null())
             if bad.height:
                 raise ManifestError(f"manifest column {name!r} must be numeric; row value {bad[name][0]!r}")
-    for name, unit in (("speed_kmh", "km/h"), ("dx", "m")):
+    for name, unit in (("speed_kmh", "km/h"), ("dx", "m"), ("dy", "m")):
         if name in table.columns:
             values = table[name].cast(pl.Float64, strict=False).drop_nulls()
             if values.len() and not (values > 0).all():

@@ -34,6 +34,8 @@ MANIFEST_COLUMNS: dict[str, type[pl.DataType] | pl.DataType] = {
 READER_COLUMNS: dict[str, type[pl.DataType]] = {
     name: {str: pl.String, float: pl.Float64, bool: pl.Boolean}[kind] for name, kind in READ_OPTIONS.items()
 }
+#: ``dy`` (m): the spacing across the road of a surface run's 2-D heights file (``dx`` is along it).
+READER_COLUMNS["dy"] = pl.Float64
 #: Metadata columns copied from the manifest into every segment row.
 METADATA_COLUMNS = ("site", "lane", "wheel_path", "date", "device", "direction", "pavement", "speed_kmh")
 #: Prefix of optional measured-noise columns: ``noise_<centre frequency in Hz>`` in dB, e.g.
@@ -48,7 +50,9 @@ _METADATA: Columns = {name: ((pl.Float64(), "km/h") if name == "speed_kmh" else 
 
 SEGMENT_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
-    "segment": (pl.Int64(), "count"),
+    "model": (pl.String(), None),                 # "line" (line model) or "areal" (surface runs' areal model)
+    "segment": (pl.Int64(), "count"),             # segment of a line run; tile (along the road) of a surface run
+    "line": (pl.Int64(), "count"),                # surface runs: row of the surface (null: line runs, areal tiles)
     "youngs_modulus": (pl.Float64(), "Pa"),
     "start": (pl.Float64(), "m"),                 # position of the segment's first point in the run
     "end": (pl.Float64(), "m"),                   # start + segment length
@@ -66,7 +70,9 @@ SEGMENT_COLUMNS: Columns = {
 }
 BAND_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
-    "segment": (pl.Int64(), "count"),
+    "model": (pl.String(), None),                 # "line" (line model) or "areal" (surface runs' areal model)
+    "segment": (pl.Int64(), "count"),             # segment of a line run; tile (along the road) of a surface run
+    "line": (pl.Int64(), "count"),                # surface runs: row of the surface (null: line runs, areal tiles)
     "youngs_modulus": (pl.Float64(), "Pa"),
     "band": (pl.Int64(), "1"),                    # ISO band index n: centre 1000 / 10^(n/10) mm
     "label": (pl.String(), None),                 # nominal centre wavelength as acousticians write it (mm)
@@ -78,6 +84,7 @@ BAND_COLUMNS: Columns = {
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
+                                                  # (the line-run pilot's; null for areal rows: not budgeted)
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -149,6 +156,18 @@ EXAMPLE_COLUMNS: Columns = {
     "envelope": (pl.Float64(), "m"),              # enveloped profile
     "pressure": (pl.Float64(), "Pa"),             # contact pressure
 }
+SURFACE_EXAMPLE_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),             # the surface run's middle tile
+    "youngs_modulus": (pl.Float64(), "Pa"),       # the job's middle modulus
+    "dx": (pl.Float64(), "m"),                    # along the road
+    "dy": (pl.Float64(), "m"),                    # across the road
+    "x": (pl.Float64(), "m"),                     # along the run
+    "y": (pl.Float64(), "m"),                     # across the surface
+    "height": (pl.Float64(), "m"),                # the tile as solved (its plane removed)
+    "envelope": (pl.Float64(), "m"),              # enveloped surface (areal model)
+    "pressure": (pl.Float64(), "Pa"),             # contact pressure (areal model)
+}
 EDGE_EFFECT_COLUMNS: Columns = {
     "model": (pl.String(), None),                 # "finite", "periodic" or "flat punch (exact)"
     "index": (pl.Int64(), "count"),               # element
@@ -182,6 +201,7 @@ ERROR_SCHEMA = schema(ERROR_COLUMNS)
 PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
 EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
 EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
+SURFACE_EXAMPLE_SCHEMA = schema(SURFACE_EXAMPLE_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
@@ -193,5 +213,5 @@ RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUM
 TABLES: dict[str, Columns] = {
     "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,
     "profiles": PROFILE_COLUMNS, "examples": EXAMPLE_COLUMNS, "edge_effect": EDGE_EFFECT_COLUMNS,
-    "pilot": PILOT_COLUMNS,
+    "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS,
 }

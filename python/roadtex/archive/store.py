@@ -86,6 +86,6 @@ def remove_outputs(out_dir: str | os.PathLike[str]) -> None:
     """Deletes a job's outputs (the per-run folders and the combined tables)."""
     out = Path(out_dir)
     shutil.rmtree(out / "runs", ignore_errors=True)
-    for name in ("segments", "bands", "runs", "errors", "examples", "edge_effect"):
+    for name in ("segments", "bands", "runs", "errors", "examples", "edge_effect", "surface_examples"):
         (out / f"{name}.parquet").unlink(missing_ok=True)
     (out / "parameters.json").unlink(missing_ok=True)

@@ -92,6 +92,10 @@ class Results:
     #: pilot.parquet (empty when the job ran with the error budget off; None when the folder has no
     #: such file: written by a roadtex before the error budget).
     pilot: pl.DataFrame | None = None
+    #: surface runs' band rows of both models ("line" and "areal"; reported bands only) and their
+    #: middle tiles (surface_examples.parquet); None when the results hold no areal row.
+    surface_bands: pl.DataFrame | None = None
+    surface_examples: pl.DataFrame | None = None
 
     @property
     def options(self) -> dict[str, Any]:
@@ -134,13 +138,24 @@ def load_results(results_dir: Path) -> Results:
         raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed (see errors.parquet)")
     errors_path = results_dir / "errors.parquet"
     pilot_path = results_dir / "pilot.parquet"
-    return Results(results_dir, segments, read_reported_bands(results_dir / "bands.parquet"),
+    bands = read_reported_bands(results_dir / "bands.parquet")
+    surface_bands = surface_examples = None
+    if "model" in bands.columns and (bands["model"] == "areal").any():
+        areal_runs = bands.filter(pl.col("model") == "areal")["run_id"].unique()
+        surface_bands = bands.filter(pl.col("run_id").is_in(areal_runs.implode()))
+        example_path = results_dir / "surface_examples.parquet"
+        surface_examples = pl.read_parquet(example_path) if example_path.exists() else None
+    if "model" in segments.columns:
+        # the seed's figures and the run tables show the line model (surface runs: on their lines)
+        segments = segments.filter(pl.col("model") == "line")
+        bands = bands.filter(pl.col("model") == "line")
+    return Results(results_dir, segments, bands,
                    pl.read_parquet(results_dir / "runs.parquet"),
                    pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
                    pl.read_parquet(results_dir / "examples.parquet"),
                    pl.read_parquet(results_dir / "edge_effect.parquet"),
                    json.loads((results_dir / "parameters.json").read_text()),
-                   pl.read_parquet(pilot_path) if pilot_path.exists() else None)
+                   pl.read_parquet(pilot_path) if pilot_path.exists() else None, surface_bands, surface_examples)
 
 
 @dataclass
@@ -158,7 +173,9 @@ class Example:
 def load_examples(results: Results, max_groups: int = 4) -> list[Example]:
     """The example segment (each run's middle segment, solved by the job at every modulus) of the
     first run of each pavement type (or run), read from ``examples.parquet``."""
-    chosen = results.run_groups().group_by("group", maintain_order=True).first().head(max_groups)
+    with_example = results.examples["run_id"].unique().implode()
+    chosen = (results.run_groups().filter(pl.col("run_id").is_in(with_example))
+              .group_by("group", maintain_order=True).first().head(max_groups))
     examples = []
     for group, run_id in chosen.select("group", "run_id").iter_rows():
         rows = results.examples.filter(pl.col("run_id") == run_id).sort("youngs_modulus", "position")

@@ -20,7 +20,10 @@ texture spectra of enveloped profiles and their difference from the original; 4.
 spectra; 4.6 pressure level against texture level per octave band with a regression line per E;
 then, always, the speed against error of every setting the error-budget pilot evaluated (saying so
 when there was no pilot); then solver speed against error when benchmark data (``benches/speed_vs_error.py --json``) is given
-or found. Moduli and pressures are in MPa, levels in dB re 1 µm (texture) and dB re 1 Pa
+or found; then, when the results hold surface runs (areal rows), one tile per pavement with its
+enveloped surface and pressure map, the line against areal enveloped levels per band and E, and a
+table of the bands where the line model is within 0.5 dB of the areal one
+(:mod:`~roadtex.report.surface_figures`). Moduli and pressures are in MPa, levels in dB re 1 µm (texture) and dB re 1 Pa
 (pressure).
 """
 
@@ -53,9 +56,17 @@ from roadtex.report.data import (
 from roadtex.report.error_budget import band_error_table, budget_summary, fig_setting_speed_vs_error, pilot_state
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
+from roadtex.report.surface_figures import (
+    AGREEMENT_DB,
+    SURFACE_FIGURES,
+    agreement_table,
+    fig_line_vs_areal,
+    fig_surface_tiles,
+)
 
 #: Figure order and captions in the report (without their number: a figure's number is its place in
-#: the document). ``{envelopes}`` stands for the number of the enveloped-profiles figure.
+#: the document); the 3D-surface figures, drawn only for surface runs, follow (:data:`SURFACE_FIGURES`).
+#: ``{envelopes}`` stands for the number of the enveloped-profiles figure.
 FIGURES: dict[str, str] = {
     "von_meier": "von Meier et al. envelopes at several curvature limits d* on one profile.",
     "edge_effect": "The edge effect: pressure on a flat profile, finite sample against the periodic model.",
@@ -81,7 +92,7 @@ FIGURES: dict[str, str] = {
 #: The figure of the INRETS report (the seed) that each figure reproduces.
 SEED_FIGURES: dict[str, str] = {
     "von_meier": "2.1", "edge_effect": "3.1", "envelopes": "4.1", "pressures": "4.2", "valley_penetration": "4.3",
-    "texture_spectra": "4.4", "pressure_spectra": "4.5", "pressure_vs_texture": "4.6",
+    "texture_spectra": "4.4", "pressure_spectra": "4.5", "pressure_vs_texture": "4.6", "line_vs_areal": "4.4",
 }
 
 
@@ -121,6 +132,11 @@ def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> t
         fig = fig_speed_vs_error(plt, benchmark)
         if fig is not None:
             figures["speed_vs_error"] = fig
+    if results.surface_bands is not None:
+        for name, draw in (("surface_tiles", fig_surface_tiles), ("line_vs_areal", fig_line_vs_areal)):
+            fig = draw(plt, results)
+            if fig is not None:
+                figures[name] = fig
     return figures, regressions
 
 
@@ -129,10 +145,11 @@ def captions(names: list[str], notes: dict[str, str] | None = None) -> dict[str,
     seed figure it reproduces: "Figure 3: ... (reproduces figure 4.1 of the INRETS report).", and
     the sentence ``notes[name]`` after it when given."""
     numbers = {name: index + 1 for index, name in enumerate(names)}
-    fields = {name: numbers.get(name, "?") for name in FIGURES}
+    known = {**FIGURES, **SURFACE_FIGURES}
+    fields = {name: numbers.get(name, "?") for name in known}
     out = {}
     for name in names:
-        text = FIGURES[name].format(**fields)
+        text = known[name].format(**fields)
         if name in SEED_FIGURES:
             text = f"{text[:-1]} (reproduces figure {SEED_FIGURES[name]} of the INRETS report)."
         if notes and notes.get(name):
@@ -234,6 +251,16 @@ def failure_section(results: Results) -> str:
             + html_table(failure_table(results), classes="failures"))
 
 
+def surface_section(results: Results) -> list[str]:
+    """The 3D surfaces' table (nothing when the results hold no areal row)."""
+    if results.surface_bands is None:
+        return []
+    return [f"<h2>3D surfaces: where the line model is within {AGREEMENT_DB:g} dB of the areal model</h2>",
+            f"<p>Per pavement and E, the bands whose mean enveloped level on the surface's lines (line model) "
+            f"differs by at most {AGREEMENT_DB:g} dB from the areal model's on the same lines.</p>",
+            html_table(agreement_table(results), classes="surfaces")]
+
+
 def cell(value: Any) -> str:
     """A table cell's text: numbers to 3 significant digits without exponent, "n/a" for a missing
     number, yes/no for booleans."""
@@ -332,6 +359,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "<h2>Figures</h2>", *sections,
         "<h2>Regressions of pressure level on texture level, per octave band and E</h2>",
         html_table(regression_table(regressions), classes="regressions"),
+        *surface_section(results),
         "</body></html>",
     ]
     report_path = out / "report.html"

@@ -1,0 +1,285 @@
+"""One surface run of the bulk job (3D texture): read, condition, solve with the areal model on
+tiles and with the line model on lines of the same surface; its tables, nothing written.
+
+How a surface run is cut and solved (documented choices):
+
+- Tiles are ``segment_length`` along the road (overlapping by ``segment_overlap``) by the whole
+  width of the surface across it (surfaces are measured as strips a few decimetres wide; a tile
+  is one footprint-sized periodic cell). Each tile's least-squares plane is removed.
+- :data:`SURFACE_LINES` rows evenly spread across the surface are the lines. The line model
+  solves, for each line, the same stretches as the tiles (the line's samples under the tile,
+  its least-squares line removed), so the line and areal rows of one (segment, line) compare the
+  same road.
+- Areal band levels are taken along those rows of each tile's enveloped surface (and of its
+  pressure map): ``bands.parquet`` holds one row per (model, segment, line, modulus, band).
+- The surface is solved at its own spacings ``dx``, ``dy`` and at the job's tolerance; the
+  job's error budget (a pilot on line runs) does not cover areal rows: their ``level_error_db``
+  is null.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from roadtex.archive.compute import run_stage, segment_mpd
+from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.schemas import (
+    METADATA_COLUMNS,
+    RUN_BAND_SCHEMA,
+    RUN_RUN_SCHEMA,
+    SEGMENT_SCHEMA,
+    SURFACE_EXAMPLE_SCHEMA,
+)
+from roadtex.errors import InvalidInputError, RunFailure
+from roadtex.models.contact import contact_many
+from roadtex.models.results import contact_measures
+from roadtex.models.surface import contact_surface_many
+from roadtex.profiles.mpd import mpd as mean_profile_depth
+from roadtex.profiles.plausibility import implausible_texture
+from roadtex.spectra.analysis import time_frequency
+from roadtex.spectra.bands import REFERENCE_PRESSURE
+from roadtex.spectra.levels import band_levels
+from roadtex.surfaces.readers import read_surface
+from roadtex.surfaces.surface import Surface
+
+#: Lines (rows evenly spread across the surface) solved with the line model and analysed.
+SURFACE_LINES = 5
+#: ``format`` values of the manifest that make a run a surface run (besides a ``.crg`` file).
+SURFACE_FORMATS = ("surface", "crg")
+#: Reader options of a surface run taken from its manifest row (m for dx, dy).
+SURFACE_READ_OPTIONS = ("dx", "dy", "height_unit", "distance_unit")
+
+
+def is_surface_run(run: dict[str, Any]) -> bool:
+    """Whether a manifest row is a surface run: ``format`` "surface" (or "crg"), or a ``.crg`` file."""
+    fmt = run.get("format")
+    return (isinstance(fmt, str) and fmt.lower() in SURFACE_FORMATS) or Path(run["path"]).suffix.lower() == ".crg"
+
+
+def surface_reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str, Any]:
+    """:func:`roadtex.surfaces.read_surface` options of one run: the job's reader defaults that apply
+    to surfaces, overridden by the run's manifest columns (``dx``, ``dy`` in m, units)."""
+    chosen = {k: v for k, v in options.reader_defaults.items() if k in SURFACE_READ_OPTIONS}
+    for name in SURFACE_READ_OPTIONS:
+        value = run.get(name)
+        if value is not None and not (isinstance(value, float) and np.isnan(value)):
+            chosen[name] = value
+    fmt = run.get("format")
+    chosen["format"] = "crg" if isinstance(fmt, str) and fmt.lower() == "crg" else None
+    return chosen
+
+
+def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, float]:
+    """Spikes flagged, drop-outs filled, the least-squares plane removed; returns the surface and
+    the share of readings removed as spikes."""
+    surface = raw
+    spike_fraction = 0.0
+    if spike_alpha is not None:
+        before = np.isnan(raw.heights).sum()
+        surface = raw.remove_spikes(spike_alpha)
+        spike_fraction = float((np.isnan(surface.heights).sum() - before) / raw.heights.size)
+    return surface.fill_dropouts().remove_plane(), spike_fraction
+
+
+def line_rows(rows: int) -> np.ndarray:
+    """Indices of the :data:`SURFACE_LINES` rows evenly spread across a surface of ``rows`` rows."""
+    return np.unique(np.linspace(0, rows - 1, min(SURFACE_LINES, rows)).round().astype(int))
+
+
+def detrend_lines(values: np.ndarray) -> np.ndarray:
+    """Each row (last axis) with its least-squares line removed."""
+    n = values.shape[-1]
+    t = np.arange(n) - (n - 1) / 2.0
+    mean = values.mean(axis=-1, keepdims=True)
+    slope = (values * t).sum(axis=-1, keepdims=True) / (t * t).sum()
+    return values - mean - slope * t
+
+
+def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
+                        threads: int | None = None) -> dict[str, pl.DataFrame | None]:
+    """Reads, conditions, tiles and solves one surface run with the areal and the line model.
+
+    ``options.tol`` must be set (the job's plan); the surface is solved at its own spacings.
+
+    Returns:
+        The run's tables (``segments``, ``bands``, ``run``; ``example`` is None), as line runs
+        give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface,
+        and ``surface_example``: the middle tile solved at the middle modulus (for the report).
+
+    Raises:
+        RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
+    """
+    if options.tol is None:
+        raise InvalidInputError("compute_surface_run needs options.tol (the job's plan sets it)")
+    name = Path(run["path"]).name
+    reader = surface_reader_options(run, options)
+    raw = run_stage("read", lambda: read_surface(run["path"], **reader))
+    finite = raw.heights[np.isfinite(raw.heights)]
+    reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
+    if reason is not None:
+        raise RunFailure("read", InvalidInputError(
+            f"{reason} Give the file's units (manifest columns distance_unit, height_unit)."))
+    surface, spike_fraction = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
+    tiles = run_stage("segment", lambda: surface.tiles(options.segment_length, surface.width,
+                                                       (options.segment_overlap, 0.0)))
+    rows = line_rows(surface.shape[0])
+    lines = run_stage("segment", lambda: surface.lines(rows=rows.tolist()))
+    depths = [run_stage("mpd", lambda p=p: mean_profile_depth(p, spike_alpha=options.mpd_spike_alpha)) for p in lines]
+    moduli = np.asarray(options.youngs_moduli, dtype=np.float64)
+    n_tiles, n_y, n_x = tiles.heights.shape
+    dx, dy = surface.dx, surface.dy
+    speed = run.get("speed_kmh")
+    speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
+    starts = tiles.x0 + dx * tiles.column_starts
+
+    areal = run_stage("solve", lambda: contact_surface_many(
+        tiles.heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
+        tol=options.tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
+        raise_on_nonconvergence=False))
+    # the line model on the same stretches: [tile, line, x]
+    take = tiles.column_starts[:, None] + np.arange(n_x)[None, :]
+    line_heights = detrend_lines(np.stack([p.heights[take] for p in lines], axis=1))
+    flat = line_heights.reshape(-1, n_x)
+    line_batch = run_stage("solve", lambda: contact_many(
+        flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+        max_iterations=options.max_iterations, threads=threads, warm_start=True, raise_on_nonconvergence=False))
+
+    method, kind = options.band_method, options.band_kind
+    texture = run_stage("spectra", lambda: band_levels(flat, dx, kind=kind, periodic=True, method=method))
+    bands = texture.bands
+    if not bands["reported"].any():
+        raise RunFailure("spectra", InvalidInputError(
+            f"no {kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the tile "
+            f"length ({tiles.length:.3g} m); use longer segments"))
+    frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
+                 if speed is not None else np.full(bands.height, np.nan))
+    # tiles are detrended with their plane, the line model's stretches with their own line: the
+    # areal envelope's lines are moved into the line model's frame (the linear difference of the
+    # two detrendings subtracted) so that both models' spectra see the same road
+    frame_shift = tiles.heights[:, rows, :] - line_heights             # [tile, line, x], linear in x
+    areal_env = areal.envelope[:, :, rows, :] - frame_shift[:, None]   # [tile, modulus, line, x]
+    areal_p = areal.pressure[:, :, rows, :]
+    line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, n_x)
+    line_p = line_batch.pressure.reshape(n_tiles, len(rows), moduli.size, n_x)
+
+    def levels(values: np.ndarray, reference: float | None = None) -> np.ndarray:
+        extra = {} if reference is None else {"reference": reference}
+        return run_stage("spectra", lambda: band_levels(values.reshape(-1, n_x), dx, kind=kind, periodic=True,
+                                                        method=method, **extra).levels)
+
+    texture_levels = texture.levels.reshape(n_tiles, len(rows), 1, -1)
+    n_bands = bands.height
+    band_frames = []
+    for model, env, pres in (("line", line_env, line_p),
+                             ("areal", np.moveaxis(areal_env, 1, 2), np.moveaxis(areal_p, 1, 2))):
+        # env, pres: [tile, line, modulus, x]
+        env_levels = levels(env).reshape(n_tiles, len(rows), moduli.size, n_bands)
+        p_levels = levels(pres, REFERENCE_PRESSURE).reshape(n_tiles, len(rows), moduli.size, n_bands)
+        tile_i, line_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), rows, np.arange(moduli.size),
+                                                                indexing="ij"))
+        count = tile_i.size
+        band_frames.append(pl.DataFrame({
+            "run_id": [run["run_id"]] * (count * n_bands),
+            "model": [model] * (count * n_bands),
+            "segment": np.repeat(tile_i, n_bands),
+            "line": np.repeat(line_i, n_bands),
+            "youngs_modulus": np.repeat(moduli[mod_i], n_bands),
+            "band": np.tile(bands["band"].to_numpy(), count),
+            "label": np.tile(bands["label"].to_numpy(), count),
+            "centre_wavelength": np.tile(bands["centre_wavelength"].to_numpy(), count),
+            "frequency": np.tile(frequency, count),
+            "reported": np.tile(bands["reported"].to_numpy(), count),
+            "reason": np.tile(bands["reason"].to_numpy(), count),
+            "texture_level": np.broadcast_to(texture_levels, env_levels.shape).ravel(),
+            "enveloped_level": env_levels.ravel(),
+            "pressure_level": p_levels.ravel(),
+        }).select([pl.col(c).cast(t) for c, t in RUN_BAND_SCHEMA.items()]))
+
+    line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
+    segment_frames = []
+    line_measures = contact_measures(line_heights[:, :, None, :], line_p, line_env)
+    with np.errstate(all="ignore"):
+        areal_mpd = np.nanmean(line_mpd, axis=1) if np.isfinite(line_mpd).any() else np.full(n_tiles, np.nan)
+    areal_measures = contact_measures(tiles.heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
+                                      areal.envelope.reshape(n_tiles, moduli.size, -1))
+    line_iter = line_batch.iterations.reshape(n_tiles, len(rows), moduli.size)
+    line_res = line_batch.residual.reshape(n_tiles, len(rows), moduli.size)
+    line_conv = line_batch.converged.reshape(n_tiles, len(rows), moduli.size)
+    tile_i, line_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(len(rows)),
+                                                            np.arange(moduli.size), indexing="ij"))
+    segment_frames.append(segment_frame(run, "line", tile_i, rows[line_i], moduli[mod_i], starts[tile_i],
+                                        tiles.length, line_mpd[tile_i, line_i],
+                                        line_heights.std(axis=-1)[tile_i, line_i],
+                                        {k: v[tile_i, line_i, mod_i] for k, v in line_measures.items()},
+                                        line_res[tile_i, line_i, mod_i], line_iter[tile_i, line_i, mod_i],
+                                        line_conv[tile_i, line_i, mod_i]))
+    tile_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(moduli.size), indexing="ij"))
+    segment_frames.append(segment_frame(run, "areal", tile_i, None, moduli[mod_i], starts[tile_i], tiles.length,
+                                        areal_mpd[tile_i], tiles.heights.reshape(n_tiles, -1).std(axis=1)[tile_i],
+                                        {k: v[tile_i, mod_i] for k, v in areal_measures.items()},
+                                        areal.residual[tile_i, mod_i], areal.iterations[tile_i, mod_i],
+                                        areal.converged[tile_i, mod_i]))
+    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
+    return {
+        "example": None,
+        "surface_example": surface_example(run["run_id"], tiles, areal, moduli),
+        "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
+        "bands": pl.concat(band_frames).with_columns(
+            pl.col("frequency").fill_nan(None),
+            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
+        "run": surface_run_table(run, raw, surface, spike_fraction, depths, n_tiles, options.tol),
+    }
+
+
+def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.ndarray | None, modulus: np.ndarray,
+                  start: np.ndarray, length: float, mpd: np.ndarray, rms: np.ndarray, measures: dict[str, np.ndarray],
+                  residual: np.ndarray, iterations: np.ndarray, converged: np.ndarray) -> pl.DataFrame:
+    """Rows of segments.parquet for one model (SEGMENT_SCHEMA)."""
+    count = tile.size
+    columns: dict[str, Any] = {
+        "run_id": [run["run_id"]] * count, "model": [model] * count, "segment": tile,
+        "line": [None] * count if line is None else line, "youngs_modulus": modulus, "start": start,
+        "end": start + length, **{name: [run.get(name)] * count for name in METADATA_COLUMNS},
+        "mpd": mpd, "rms_height": rms, **measures, "residual": residual, "iterations": iterations,
+        "converged": converged,
+    }
+    return pl.DataFrame({k: (v if isinstance(v, list) else np.asarray(v)) for k, v in columns.items()},
+                        schema=SEGMENT_SCHEMA)
+
+
+def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, spike_fraction: float, depths: list[Any],
+                      n_tiles: int, tol: float) -> pl.DataFrame:
+    """The run's row of runs.parquet; MPD is the mean over the analysed lines (valid when all are)."""
+    values = [d.mpd for d in depths if np.isfinite(d.mpd)]
+    return pl.DataFrame({
+        "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
+        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "points": [surface.heights.size],
+        "raw_length": [raw.length], "trimmed_length": [0.0], "length": [surface.length], "plates": ["none"],
+        "dropout_fraction": [raw.dropout_fraction], "spike_fraction": [spike_fraction], "outlier_fraction": [0.0],
+        "conditioning_warnings": [None], "segments": [n_tiles],
+        "mpd": [float(np.mean(values)) if values else None],
+        "mpd_valid": [bool(all(d.is_valid for d in depths))],
+        "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],
+        "mpd_baselines": [int(sum(int(d.segments.height) for d in depths))],
+    }, schema=RUN_RUN_SCHEMA)
+
+
+def surface_example(run_id: str, tiles: Any, areal: Any, moduli: np.ndarray) -> pl.DataFrame:
+    """The middle tile's heights, enveloped surface and pressure map at the middle modulus
+    (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws without re-solving."""
+    tile = len(tiles) // 2
+    k = int(np.argsort(moduli)[moduli.size // 2])
+    _, n_y, n_x = tiles.heights.shape
+    x = tiles.x0 + tiles.dx * (tiles.column_starts[tile] + np.arange(n_x))
+    y = tiles.y0 + tiles.dy * (tiles.row_starts[tile] + np.arange(n_y))
+    count = n_x * n_y
+    return pl.DataFrame({
+        "run_id": [run_id] * count, "segment": np.full(count, tile), "youngs_modulus": np.full(count, moduli[k]),
+        "dx": np.full(count, tiles.dx), "dy": np.full(count, tiles.dy),
+        "x": np.tile(x, n_y), "y": np.repeat(y, n_x), "height": tiles.heights[tile].ravel(),
+        "envelope": areal.envelope[tile, k].ravel(), "pressure": areal.pressure[tile, k].ravel(),
+    }, schema=SURFACE_EXAMPLE_SCHEMA)

@@ -1,0 +1,112 @@
+"""The report's 3D-surface part (surface runs of the bulk job): one tile per pavement, its enveloped
+surface and pressure map; line against areal enveloped levels per band and E (the seed's figure
+4.4 in 3D); per pavement, the bands where the line model is within :data:`AGREEMENT_DB` of the
+areal one. Drawn only when the results hold areal rows."""
+
+from __future__ import annotations
+
+import numpy as np
+import polars as pl
+
+from roadtex.report.data import COLOURS, MM, Results, legend_outside, modulus_label
+
+#: Captions of the 3D-surface figures (after the seed's figures; drawn only when the results hold areal rows).
+SURFACE_FIGURES: dict[str, str] = {
+    "surface_tiles": ("3D surfaces: one tile per pavement, its enveloped surface (mm, areal model) and its "
+                      "contact pressure map (MPa), at the job's middle E."),
+    "line_vs_areal": ("3D surfaces: line model minus areal model enveloped level (dB) per band and E, mean over "
+                      "the tiles and lines of each pavement; the grey band is ±0.5 dB."),
+}
+#: The line model "agrees" with the areal one in a band when its mean enveloped level is within this (dB).
+AGREEMENT_DB = 0.5
+
+
+def surface_groups(results: Results) -> pl.DataFrame:
+    """One row per surface run: ``run_id`` and ``group`` (pavement, else the run id)."""
+    assert results.surface_bands is not None
+    groups = results.run_groups()
+    runs = results.surface_bands.select("run_id").unique(maintain_order=True)
+    return runs.join(groups, on="run_id", how="left").with_columns(pl.col("group").fill_null(pl.col("run_id")))
+
+
+def level_differences(results: Results) -> pl.DataFrame:
+    """Per pavement, E and band: mean over tiles and lines of (line − areal) enveloped level (dB)."""
+    assert results.surface_bands is not None
+    bands = results.surface_bands.filter(pl.col("enveloped_level").is_not_null())
+    keys = ["run_id", "segment", "line", "youngs_modulus", "band"]
+    line = bands.filter(pl.col("model") == "line").select(*keys, "label", pl.col("enveloped_level").alias("line_level"))
+    areal = bands.filter(pl.col("model") == "areal").select(*keys, pl.col("enveloped_level").alias("areal_level"))
+    joined = line.join(areal, on=keys).join(surface_groups(results), on="run_id", how="left")
+    return (joined.group_by("group", "youngs_modulus", "band", maintain_order=True)
+            .agg(pl.col("label").first(), (pl.col("line_level") - pl.col("areal_level")).mean().alias("difference_db"))
+            .sort("group", "youngs_modulus", "band"))
+
+
+def agreement_table(results: Results) -> pl.DataFrame:
+    """Per pavement and E: the bands where |line − areal| mean enveloped level <= :data:`AGREEMENT_DB`,
+    and those where it is not (band labels, centre wavelength in mm)."""
+    diff = level_differences(results)
+    within = diff["difference_db"].abs() <= AGREEMENT_DB
+    diff = diff.with_columns(within.alias("within"))
+    rows = []
+    for (group, e), part in diff.group_by("group", "youngs_modulus", maintain_order=True):
+        rows.append({
+            "pavement": str(group), "E (MPa)": e / 1e6,
+            f"bands within {AGREEMENT_DB} dB (mm)": ", ".join(part.filter(pl.col("within"))["label"]) or "none",
+            "bands beyond (mm)": ", ".join(part.filter(~pl.col("within"))["label"]) or "none",
+            "largest |difference| (dB)": float(part["difference_db"].abs().max()),
+        })
+    return pl.DataFrame(rows)
+
+
+def fig_surface_tiles(plt, results: Results):
+    """For one tile per pavement: the enveloped surface (mm) and its pressure map (MPa), with colour bars."""
+    examples = results.surface_examples
+    if examples is None or examples.height == 0:
+        return None
+    chosen = (surface_groups(results).filter(pl.col("run_id").is_in(examples["run_id"].unique().implode()))
+              .group_by("group", maintain_order=True).first())
+    fig, axes = plt.subplots(chosen.height, 2, figsize=(10.0, 2.2 * chosen.height + 0.8), squeeze=False,
+                             layout="constrained")
+    for row, (group, run_id) in enumerate(chosen.select("group", "run_id").iter_rows()):
+        tile = examples.filter(pl.col("run_id") == run_id).sort("y", "x")
+        x, y = np.unique(tile["x"].to_numpy()), np.unique(tile["y"].to_numpy())
+        extent = (x[0] * MM, x[-1] * MM, y[0] * MM, y[-1] * MM)
+        envelope = tile["envelope"].to_numpy().reshape(y.size, x.size) * MM
+        pressure = tile["pressure"].to_numpy().reshape(y.size, x.size) / 1e6
+        e = float(tile["youngs_modulus"][0])
+        for ax, values, cmap, label, title in (
+                (axes[row, 0], envelope, "viridis", "enveloped height (mm)", "enveloped surface"),
+                (axes[row, 1], pressure, "magma", "contact pressure (MPa)", "pressure map")):
+            image = ax.imshow(values, origin="lower", extent=extent, cmap=cmap, aspect="auto", interpolation="nearest")
+            fig.colorbar(image, ax=ax, label=label)
+            ax.set(title=f"{group}: {title}, {modulus_label(e)}", xlabel="x along the road (mm)",
+                   ylabel="y across (mm)")
+    return fig
+
+
+def fig_line_vs_areal(plt, results: Results):
+    """Line − areal enveloped level (dB) per band, one panel per pavement, one curve per E."""
+    diff = level_differences(results)
+    if diff.height == 0:
+        return None
+    groups = diff["group"].unique(maintain_order=True).to_list()
+    labels = diff.sort("band").select("band", "label").unique(maintain_order=True)
+    position = {b: i for i, b in enumerate(labels["band"])}
+    fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
+                             layout="constrained")
+    moduli = sorted(diff["youngs_modulus"].unique().to_list())
+    for column, group in enumerate(groups):
+        ax = axes[0, column]
+        for colour, e in zip(COLOURS, moduli):
+            rows = diff.filter((pl.col("group") == group) & (pl.col("youngs_modulus") == e))
+            ax.plot([position[b] for b in rows["band"]], rows["difference_db"], color=colour, marker=".", lw=1.0,
+                    label=modulus_label(e))
+        ax.axhspan(-AGREEMENT_DB, AGREEMENT_DB, color="0.9", zorder=0)
+        ax.axhline(0, color="0.5", lw=0.7)
+        ax.set_xticks(range(labels.height))
+        ax.set_xticklabels(labels["label"].to_list(), rotation=90)
+        ax.set(title=str(group), xlabel="band, centre wavelength (mm)")
+    axes[0, 0].set_ylabel("line − areal enveloped level (dB)")
+    legend_outside(fig, axes[0, 0])
+    return fig

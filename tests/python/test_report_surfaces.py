@@ -1,0 +1,78 @@
+"""The report's 3D-surface part (issue 17): drawn only when the results hold areal rows; the
+line-against-areal table agrees with the plane-strain case."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+
+from roadtex.archive import ProcessingOptions, process
+from roadtex.demo import write_synthetic_archive
+from roadtex.profiles import synthetic_pavement
+from roadtex.report import build_report
+from roadtex.report.data import load_results
+from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, level_differences
+
+OPTIONS = ProcessingOptions(segment_length=0.2, youngs_moduli=(2e6, 5e6), tol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def mixed_results(tmp_path_factory) -> Path:
+    """Two line runs and two surface runs (one of them a line profile extruded across the road)."""
+    root = tmp_path_factory.mktemp("mixed")
+    manifest = write_synthetic_archive(root / "archive", kinds=("dense_asphalt",), runs_per_kind=2, run_length=0.6,
+                                       surfaces_per_kind=1, surface_size=(0.4, 0.03))
+    line = synthetic_pavement("porous_asphalt", 0.4, 1e-3, seed=9).heights[:400]
+    np.save(root / "archive" / "extruded.npy", np.tile(line, (6, 1)))
+    table = pl.read_csv(manifest)
+    extra = pl.DataFrame({"path": ["extruded.npy"], "run_id": ["extruded"], "format": ["surface"], "dx": [1e-3],
+                          "dy": [1e-3], "pavement": ["extruded"]})
+    pl.concat([table, extra], how="diagonal_relaxed").write_csv(manifest)
+    process(manifest, root / "results", OPTIONS, quiet=True)
+    return root / "results"
+
+
+def test_report_draws_surfaces_when_areal_rows(mixed_results: Path, tmp_path: Path) -> None:
+    report = build_report(mixed_results, out_dir=tmp_path / "report")
+    assert "surface_tiles" in report.figures and "line_vs_areal" in report.figures
+    text = report.html.read_text(encoding="utf-8")
+    assert f"within {AGREEMENT_DB:g} dB of the areal model" in text
+    assert 'class="surfaces"' in text
+
+
+def test_seed_figures_use_line_rows_only(mixed_results: Path) -> None:
+    results = load_results(mixed_results)
+    assert set(results.segments["model"]) == {"line"} and set(results.bands["model"]) == {"line"}
+    assert results.surface_bands is not None and set(results.surface_bands["model"]) == {"line", "areal"}
+    # the surface tables hold only the surface runs
+    assert set(results.surface_bands["run_id"]) == {"dense_asphalt_surface_001", "extruded"}
+    assert results.surface_examples is not None
+    assert set(results.surface_examples["run_id"]) == {"dense_asphalt_surface_001", "extruded"}
+
+
+def test_extruded_surface_agrees_in_every_band(mixed_results: Path) -> None:
+    """Plane strain: on a surface that is a line profile extruded across the road, the line model
+    and the areal model give the same envelope, so every band is within 0.5 dB (in fact ~0)."""
+    results = load_results(mixed_results)
+    differences = level_differences(results).filter(pl.col("group") == "extruded")
+    assert differences.height > 0 and differences["difference_db"].abs().max() < 1e-6
+    table = agreement_table(results).filter(pl.col("pavement") == "extruded")
+    assert table.height == 2
+    assert set(table["bands beyond (mm)"]) == {"none"}
+    # a real 3D surface is not plane strain: somewhere the models differ
+    other = level_differences(results).filter(pl.col("group") == "dense_asphalt")
+    assert other["difference_db"].abs().max() > 1e-3
+
+
+def test_line_only_results_build_without_surface_part(tmp_path: Path) -> None:
+    manifest = write_synthetic_archive(tmp_path / "archive", kinds=("dense_asphalt",), runs_per_kind=1,
+                                       run_length=0.6)
+    process(manifest, tmp_path / "results", OPTIONS, quiet=True)
+    results = load_results(tmp_path / "results")
+    assert results.surface_bands is None
+    report = build_report(tmp_path / "results", out_dir=tmp_path / "report")
+    assert "surface_tiles" not in report.figures and "line_vs_areal" not in report.figures
+    assert 'class="surfaces"' not in report.html.read_text(encoding="utf-8")

@@ -1,0 +1,110 @@
+"""The bulk job on 3D surface runs: areal and line rows, the plane-strain check, failures, units."""
+
+import json
+
+import numpy as np
+import polars as pl
+import pytest
+
+from roadtex.archive import ProcessingOptions, process
+from roadtex.profiles import synthetic_pavement
+from roadtex.surfaces import synthetic_surface
+
+OPTIONS = ProcessingOptions(segment_length=0.2, youngs_moduli=(2e6, 5e6), tol=1e-8)
+
+
+def run_job(tmp_path, heights, dx=1e-3, dy=1e-3, name="s"):
+    path = tmp_path / f"{name}.npy"
+    np.save(path, heights)
+    manifest = pl.DataFrame({"path": [str(path)], "format": ["surface"], "dx": [dx], "dy": [dy],
+                             "pavement": ["test"]})
+    summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True)
+    return summary, {name: pl.read_parquet(tmp_path / "out" / f"{name}.parquet")
+                     for name in ("segments", "bands", "runs", "errors")}
+
+
+def test_surface_run_gives_line_and_areal_rows(tmp_path):
+    surface = synthetic_surface("dense_asphalt", 0.4, 0.05, 1e-3, seed=3)
+    summary, tables = run_job(tmp_path, surface.heights)
+    assert summary.failed == 0 and tables["errors"].height == 0
+    seg, bands = tables["segments"], tables["bands"]
+    assert set(seg["model"]) == {"line", "areal"}
+    assert set(bands["model"]) == {"line", "areal"}
+    # two tiles along 0.4 m, five lines, two moduli
+    assert seg.filter(pl.col("model") == "areal").height == 2 * 2
+    assert seg.filter(pl.col("model") == "line").height == 2 * 5 * 2
+    assert seg.filter(pl.col("model") == "areal")["line"].null_count() == 4
+    assert seg["converged"].all()
+    # stiffer rubber touches less of the road, in both models
+    for model in ("line", "areal"):
+        by_e = seg.filter(pl.col("model") == model).group_by("youngs_modulus").agg(pl.col("contact_fraction").mean()).sort("youngs_modulus")
+        assert by_e["contact_fraction"][0] > by_e["contact_fraction"][1]
+    # areal rows carry no error estimate of the line pilot
+    assert bands.filter(pl.col("model") == "areal")["level_error_db"].null_count() == bands.filter(pl.col("model") == "areal").height
+    assert tables["runs"]["segments"][0] == 2
+
+
+def test_extruded_profile_areal_equals_line(tmp_path):
+    """A line profile extruded across the road: the areal model is in plane strain, so its rows
+    equal the line model's to solver tolerance."""
+    line = synthetic_pavement("dense_asphalt", 0.4, 1e-3, seed=5).heights
+    heights = np.tile(line[:400], (8, 1))
+    _, tables = run_job(tmp_path, heights)
+    bands = tables["bands"].filter(pl.col("reported"))
+    keys = ["segment", "line", "youngs_modulus", "band"]
+    joined = bands.filter(pl.col("model") == "line").join(bands.filter(pl.col("model") == "areal"), on=keys, suffix="_areal")
+    assert joined.height == bands.height // 2 > 0
+    diff = (joined["enveloped_level"] - joined["enveloped_level_areal"]).abs()
+    assert diff.max() < 1e-6      # dB; tol 1e-8 on both solvers
+    pdiff = (joined["pressure_level"] - joined["pressure_level_areal"]).abs()
+    assert pdiff.max() < 1e-5
+    seg = tables["segments"]
+    line_cf = seg.filter(pl.col("model") == "line").group_by(["segment", "youngs_modulus"]).agg(pl.col("contact_fraction").mean())
+    areal_cf = seg.filter(pl.col("model") == "areal").select("segment", "youngs_modulus", "contact_fraction")
+    both = line_cf.join(areal_cf, on=["segment", "youngs_modulus"], suffix="_areal")
+    assert np.allclose(both["contact_fraction"], both["contact_fraction_areal"], atol=1e-12)
+
+
+def test_surface_failure_recorded(tmp_path):
+    bad = tmp_path / "bad.npy"
+    np.save(bad, np.zeros(5))      # 1-D: not a surface
+    short = tmp_path / "short.npy"
+    np.save(short, synthetic_surface("dense_asphalt", 0.05, 0.02, 1e-3, seed=1).heights)  # shorter than a tile
+    manifest = pl.DataFrame({"path": [str(bad), str(short)], "format": ["surface", "surface"],
+                             "dx": [1e-3, 1e-3], "dy": [1e-3, 1e-3]})
+    summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True)
+    assert summary.failed == 2
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet").sort("run_id")
+    assert errors["stage"].to_list() == ["read", "segment"]
+
+
+def test_surface_tables_keep_units(tmp_path):
+    surface = synthetic_surface("porous_asphalt", 0.2, 0.03, 1e-3, seed=2)
+    run_job(tmp_path, surface.heights)
+    for name in ("segments", "bands"):
+        units = json.loads(pl.read_parquet_metadata(tmp_path / "out" / f"{name}.parquet")["units"])
+        assert units["youngs_modulus"] == "Pa" and units["line"] == "count"
+        assert "model" not in units
+
+
+def test_manifest_rejects_nonpositive_dy(tmp_path):
+    from roadtex.errors import ManifestError
+    path = tmp_path / "s.npy"
+    np.save(path, np.zeros((3, 30)))
+    with pytest.raises(ManifestError, match="dy"):
+        process(pl.DataFrame({"path": [str(path)], "format": ["surface"], "dy": [-1.0]}), tmp_path / "out", OPTIONS)
+
+
+def test_surface_example_is_the_middle_tile(tmp_path):
+    surface = synthetic_surface("dense_asphalt", 0.6, 0.03, 1e-3, seed=4)
+    run_job(tmp_path, surface.heights)
+    example = pl.read_parquet(tmp_path / "out" / "surface_examples.parquet")
+    assert example["segment"].unique().to_list() == [1]
+    assert example["youngs_modulus"].unique().to_list() == [5e6]     # middle of (2e6, 5e6) by index 1
+    assert example.height == 200 * 30
+    # the rubber never goes below the road; it touches where there is pressure
+    gap = (example["envelope"] - example["height"]).to_numpy()
+    assert gap.min() > -1e-9
+    touching = example["pressure"].to_numpy() > 0
+    assert np.abs(gap[touching]).max() < 1e-6
+    assert abs(example["pressure"].mean() - OPTIONS.mean_pressure) < 1e-6 * OPTIONS.mean_pressure
