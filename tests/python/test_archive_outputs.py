@@ -129,3 +129,10 @@ def test_budget_off_with_a_given_dx_and_tol_is_the_plain_pipeline_bit_for_bit(mi
     got = bands["enveloped_level"].to_numpy().reshape(rows, -1)
     expected = np.where(np.isfinite(enveloped.levels), enveloped.levels, np.nan)
     np.testing.assert_array_equal(got, expected)
+
+
+def test_build_manifest_lists_opencrg_surfaces_beside_profiles(tmp_path: Path, captif_dir: Path) -> None:
+    (tmp_path / "lane.crg").write_text("$CT\nnot read when listing\n$\n", encoding="utf-8")
+    (tmp_path / "station.dat").write_bytes((captif_dir / "20211011_aylesbury_dec_station_0.dat").read_bytes())
+    table = roadtex.build_manifest(tmp_path)
+    assert sorted(Path(p).name for p in table["path"]) == ["lane.crg", "station.dat"]

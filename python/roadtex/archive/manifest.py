@@ -13,7 +13,7 @@ from roadtex.errors import ManifestError
 from roadtex.profiles.readers import read_profile
 
 #: File suffixes :func:`build_manifest` lists as profile files.
-PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet"}
+PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
 
 
 def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: str | os.PathLike[str] | None = None,
@@ -116,7 +116,8 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
 def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, read_metadata: bool = True) -> pl.DataFrame:
     """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
 
-    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy or .parquet are listed, except
+    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg (OpenCRG surfaces,
+    processed as 3D surface runs) are listed, except
     hidden files and files named ``manifest*`` (a manifest kept beside its data). With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
     device, direction) fills the manifest columns; a file that cannot be read is still listed,
@@ -132,11 +133,11 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                    if p.is_file() and p.suffix.lower() in PROFILE_SUFFIXES
                    and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
     if not files:
-        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet) in {root}")
+        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet, .crg) in {root}")
     rows = []
     for path in files:
         row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
-        if read_metadata:
+        if read_metadata and path.suffix.lower() != ".crg":   # a surface: its run reads it
             try:
                 metadata = read_profile(path).metadata
             except Exception:  # listed anyway: the job records why it fails
