@@ -108,3 +108,49 @@ def test_surface_example_is_the_middle_tile(tmp_path):
     touching = example["pressure"].to_numpy() > 0
     assert np.abs(gap[touching]).max() < 1e-6
     assert abs(example["pressure"].mean() - OPTIONS.mean_pressure) < 1e-6 * OPTIONS.mean_pressure
+
+
+def test_surface_runs_solved_a_chunk_of_tiles_at_a_time_give_the_same_tables(tmp_path, monkeypatch) -> None:
+    """Memory bounded as for line runs: tiles solved in chunks give the tables of one call, bit for bit."""
+    import numpy as np
+    import polars as pl
+    from polars.testing import assert_frame_equal
+
+    import roadtex
+    from roadtex.archive import ProcessingOptions, process, surface_run
+    from roadtex.surfaces import synthetic_surface
+
+    surface = synthetic_surface("dense_asphalt", 0.5, 0.02, 0.5e-3, seed=3)
+    np.save(tmp_path / "s.npy", surface.heights)
+    manifest = pl.DataFrame({"path": [str(tmp_path / "s.npy")], "format": ["surface"], "dx": [0.5e-3], "dy": [0.5e-3]})
+    options = ProcessingOptions(youngs_moduli=(2e6, 1e7), segment_length=0.1, error_budget_db=None, tol=1e-8)
+    process(manifest, tmp_path / "whole", options, quiet=True)
+    tile_points = 200 * 40
+    monkeypatch.setattr(surface_run, "CHUNK_POINTS", 2 * tile_points)     # 2 tiles per call: 3 calls
+    process(manifest, tmp_path / "chunked", options, quiet=True)
+    for name in ("segments", "bands", "surface_examples"):
+        whole = pl.read_parquet(tmp_path / "whole" / f"{name}.parquet")
+        assert whole.height > 0
+        assert_frame_equal(pl.read_parquet(tmp_path / "chunked" / f"{name}.parquet"), whole, check_exact=True)
+    assert roadtex.errors  # the package imported whole
+
+
+def test_surface_runs_on_dask_give_the_local_engines_tables_bit_for_bit(tmp_path) -> None:
+    import numpy as np
+    import polars as pl
+    import pytest
+    from polars.testing import assert_frame_equal
+
+    from roadtex.archive import ProcessingOptions, process
+    from roadtex.surfaces import synthetic_surface
+
+    pytest.importorskip("distributed", reason="dask.distributed is a dev requirement; install roadtex[dask]")
+    surface = synthetic_surface("porous_asphalt", 0.3, 0.02, 0.5e-3, seed=2)
+    np.save(tmp_path / "s.npy", surface.heights)
+    manifest = pl.DataFrame({"path": [str(tmp_path / "s.npy")], "format": ["surface"], "dx": [0.5e-3], "dy": [0.5e-3]})
+    options = ProcessingOptions(youngs_moduli=(2e6, 1e7), segment_length=0.1, error_budget_db=None, tol=1e-8)
+    process(manifest, tmp_path / "local", options, quiet=True)
+    process(manifest, tmp_path / "dask", options, engine="dask", workers=1, quiet=True)
+    for name in ("segments", "bands", "surface_examples", "runs"):
+        assert_frame_equal(pl.read_parquet(tmp_path / "dask" / f"{name}.parquet"),
+                           pl.read_parquet(tmp_path / "local" / f"{name}.parquet"), check_exact=True)

@@ -54,6 +54,10 @@ SURFACE_FORMATS = ("surface", "crg")
 SURFACE_READ_OPTIONS = ("dx", "dy", "height_unit", "distance_unit")
 
 
+#: Surface points per solver call: the tiles of a run are solved a chunk of this many points at a
+#: time, so memory does not grow with the run's length (as CHUNK_SEGMENTS does for line runs).
+CHUNK_POINTS = 4_000_000
+
 def is_surface_run(run: dict[str, Any]) -> bool:
     """Whether a manifest row is a surface run: ``format`` "surface" (or "crg"), or a ``.crg`` file."""
     fmt = run.get("format")
@@ -131,17 +135,68 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     depths = [run_stage("mpd", lambda p=p: mean_profile_depth(p, spike_alpha=options.mpd_spike_alpha)) for p in lines]
     moduli = np.asarray(options.youngs_moduli, dtype=np.float64)
     n_tiles, n_y, n_x = tiles.heights.shape
-    dx, dy = surface.dx, surface.dy
+    dx = surface.dx
     speed = run.get("speed_kmh")
     speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
     starts = tiles.x0 + dx * tiles.column_starts
 
+    method, kind = options.band_method, options.band_kind
+    # every band is judged on the tile length alone: refuse before any solve when none is reported
+    bands = run_stage("spectra", lambda: band_levels(surface.heights[:1, :tiles.heights.shape[2]], dx, kind=kind,
+                                                     periodic=True, method=method).bands)
+    if not bands["reported"].any():
+        raise RunFailure("spectra", InvalidInputError(
+            f"no {kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the tile "
+            f"length ({tiles.length:.3g} m); use longer segments"))
+    frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
+                 if speed is not None else np.full(bands.height, np.nan))
+    line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
+    # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
+    # envelopes and pressures, for every modulus, are what grows with the run's length).
+    chunk = max(1, CHUNK_POINTS // (n_y * n_x))
+    # rows by model, then tile: the same order whatever the chunking
+    by_model: dict[str, dict[str, list[pl.DataFrame]]] = {"bands": {}, "segments": {}}
+    example = None
+    for first in range(0, n_tiles, chunk):
+        part = np.arange(first, min(first + chunk, n_tiles))
+        frames = solve_chunk(run, options, tiles, part, lines, rows, moduli, bands, frequency, line_mpd, starts,
+                             threads)
+        for table in ("bands", "segments"):
+            for frame in frames[table]:
+                by_model[table].setdefault(frame["model"][0], []).append(frame)
+        if frames["example"] is not None:
+            example = frames["example"]
+    band_frames = [f for frames_ in by_model["bands"].values() for f in frames_]
+    segment_frames = [f for frames_ in by_model["segments"].values() for f in frames_]
+    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
+    return {
+        "example": None,
+        "surface_example": example,
+        "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
+        "bands": pl.concat(band_frames).with_columns(
+            pl.col("frequency").fill_nan(None),
+            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
+        "run": surface_run_table(run, raw, surface, spike_fraction, depths, n_tiles, options.tol),
+    }
+
+
+def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, part: np.ndarray, lines: list[Any],
+                rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame, frequency: np.ndarray,
+                line_mpd: np.ndarray, starts: np.ndarray, threads: int | None) -> dict[str, Any]:
+    """The tiles ``part`` of a surface run solved with both models: their band and segment rows
+    (tile numbers as in the whole run), and the report's example when the middle tile is among them."""
+    dx, dy = tiles.dx, tiles.dy
+    n_x = tiles.heights.shape[2]
+    band_frames: list[pl.DataFrame] = []
+    segment_frames: list[pl.DataFrame] = []
+    heights = tiles.heights[part]
+    n_tiles = part.size
     areal = run_stage("solve", lambda: contact_surface_many(
-        tiles.heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
+        heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
         tol=options.tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
         raise_on_nonconvergence=False))
     # the line model on the same stretches: [tile, line, x]
-    take = tiles.column_starts[:, None] + np.arange(n_x)[None, :]
+    take = tiles.column_starts[part][:, None] + np.arange(n_x)[None, :]
     line_heights = detrend_lines(np.stack([p.heights[take] for p in lines], axis=1))
     flat = line_heights.reshape(-1, n_x)
     line_batch = run_stage("solve", lambda: contact_many(
@@ -150,17 +205,10 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
 
     method, kind = options.band_method, options.band_kind
     texture = run_stage("spectra", lambda: band_levels(flat, dx, kind=kind, periodic=True, method=method))
-    bands = texture.bands
-    if not bands["reported"].any():
-        raise RunFailure("spectra", InvalidInputError(
-            f"no {kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the tile "
-            f"length ({tiles.length:.3g} m); use longer segments"))
-    frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
-                 if speed is not None else np.full(bands.height, np.nan))
     # tiles are detrended with their plane, the line model's stretches with their own line: the
     # areal envelope's lines are moved into the line model's frame (the linear difference of the
     # two detrendings subtracted) so that both models' spectra see the same road
-    frame_shift = tiles.heights[:, rows, :] - line_heights             # [tile, line, x], linear in x
+    frame_shift = heights[:, rows, :] - line_heights             # [tile, line, x], linear in x
     areal_env = areal.envelope[:, :, rows, :] - frame_shift[:, None]   # [tile, modulus, line, x]
     areal_p = areal.pressure[:, :, rows, :]
     line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, n_x)
@@ -185,7 +233,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         band_frames.append(pl.DataFrame({
             "run_id": [run["run_id"]] * (count * n_bands),
             "model": [model] * (count * n_bands),
-            "segment": np.repeat(tile_i, n_bands),
+            "segment": np.repeat(part[tile_i], n_bands),
             "line": np.repeat(line_i, n_bands),
             "youngs_modulus": np.repeat(moduli[mod_i], n_bands),
             "band": np.tile(bands["band"].to_numpy(), count),
@@ -199,40 +247,34 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
             "pressure_level": p_levels.ravel(),
         }).select([pl.col(c).cast(t) for c, t in RUN_BAND_SCHEMA.items()]))
 
-    line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
+    line_mpd = line_mpd[part]
     segment_frames = []
     line_measures = contact_measures(line_heights[:, :, None, :], line_p, line_env)
     with np.errstate(all="ignore"):
         areal_mpd = np.nanmean(line_mpd, axis=1) if np.isfinite(line_mpd).any() else np.full(n_tiles, np.nan)
-    areal_measures = contact_measures(tiles.heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
+    areal_measures = contact_measures(heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
                                       areal.envelope.reshape(n_tiles, moduli.size, -1))
     line_iter = line_batch.iterations.reshape(n_tiles, len(rows), moduli.size)
     line_res = line_batch.residual.reshape(n_tiles, len(rows), moduli.size)
     line_conv = line_batch.converged.reshape(n_tiles, len(rows), moduli.size)
     tile_i, line_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(len(rows)),
                                                             np.arange(moduli.size), indexing="ij"))
-    segment_frames.append(segment_frame(run, "line", tile_i, rows[line_i], moduli[mod_i], starts[tile_i],
+    segment_frames.append(segment_frame(run, "line", part[tile_i], rows[line_i], moduli[mod_i], starts[part[tile_i]],
                                         tiles.length, line_mpd[tile_i, line_i],
                                         line_heights.std(axis=-1)[tile_i, line_i],
                                         {k: v[tile_i, line_i, mod_i] for k, v in line_measures.items()},
                                         line_res[tile_i, line_i, mod_i], line_iter[tile_i, line_i, mod_i],
                                         line_conv[tile_i, line_i, mod_i]))
     tile_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(moduli.size), indexing="ij"))
-    segment_frames.append(segment_frame(run, "areal", tile_i, None, moduli[mod_i], starts[tile_i], tiles.length,
-                                        areal_mpd[tile_i], tiles.heights.reshape(n_tiles, -1).std(axis=1)[tile_i],
+    segment_frames.append(segment_frame(run, "areal", part[tile_i], None, moduli[mod_i], starts[part[tile_i]], tiles.length,
+                                        areal_mpd[tile_i], heights.reshape(n_tiles, -1).std(axis=1)[tile_i],
                                         {k: v[tile_i, mod_i] for k, v in areal_measures.items()},
                                         areal.residual[tile_i, mod_i], areal.iterations[tile_i, mod_i],
                                         areal.converged[tile_i, mod_i]))
-    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
-    return {
-        "example": None,
-        "surface_example": surface_example(run["run_id"], tiles, areal, moduli),
-        "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
-        "bands": pl.concat(band_frames).with_columns(
-            pl.col("frequency").fill_nan(None),
-            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": surface_run_table(run, raw, surface, spike_fraction, depths, n_tiles, options.tol),
-    }
+    middle = len(tiles) // 2
+    example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli)
+               if middle in part else None)
+    return {"bands": band_frames, "segments": segment_frames, "example": example}
 
 
 def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.ndarray | None, modulus: np.ndarray,
@@ -268,10 +310,10 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, spike
     }, schema=RUN_RUN_SCHEMA)
 
 
-def surface_example(run_id: str, tiles: Any, areal: Any, moduli: np.ndarray) -> pl.DataFrame:
-    """The middle tile's heights, enveloped surface and pressure map at the middle modulus
-    (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws without re-solving."""
-    tile = len(tiles) // 2
+def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, moduli: np.ndarray) -> pl.DataFrame:
+    """Tile ``tile``'s heights, enveloped surface and pressure map (row ``row`` of ``areal``) at
+    the middle modulus (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws
+    without re-solving."""
     k = int(np.argsort(moduli)[moduli.size // 2])
     _, n_y, n_x = tiles.heights.shape
     x = tiles.x0 + tiles.dx * (tiles.column_starts[tile] + np.arange(n_x))
@@ -281,5 +323,5 @@ def surface_example(run_id: str, tiles: Any, areal: Any, moduli: np.ndarray) -> 
         "run_id": [run_id] * count, "segment": np.full(count, tile), "youngs_modulus": np.full(count, moduli[k]),
         "dx": np.full(count, tiles.dx), "dy": np.full(count, tiles.dy),
         "x": np.tile(x, n_y), "y": np.repeat(y, n_x), "height": tiles.heights[tile].ravel(),
-        "envelope": areal.envelope[tile, k].ravel(), "pressure": areal.pressure[tile, k].ravel(),
+        "envelope": areal.envelope[row, k].ravel(), "pressure": areal.pressure[row, k].ravel(),
     }, schema=SURFACE_EXAMPLE_SCHEMA)
