@@ -154,3 +154,28 @@ def test_surface_runs_on_dask_give_the_local_engines_tables_bit_for_bit(tmp_path
     for name in ("segments", "bands", "surface_examples", "runs"):
         assert_frame_equal(pl.read_parquet(tmp_path / "dask" / f"{name}.parquet"),
                            pl.read_parquet(tmp_path / "local" / f"{name}.parquet"), check_exact=True)
+
+
+def test_an_opencrg_surface_goes_through_the_job_from_the_folder_listing(tmp_path) -> None:
+    """A .crg file in a survey folder: listed by build_manifest, solved as a surface run (both models)."""
+    import numpy as np
+    import polars as pl
+    import pytest
+
+    from roadtex.archive import ProcessingOptions, build_manifest, process
+    from roadtex.surfaces import synthetic_surface
+
+    pycrg = pytest.importorskip("pycrg", reason="pycrg (OpenCRG) is a dev requirement; pip install pycrg")
+    surface = synthetic_surface("dense_asphalt", 0.3, 0.02, 0.5e-3, seed=4)
+    ny = surface.heights.shape[0]
+    v = (np.arange(ny) - (ny - 1) / 2) * 0.5e-3
+    folder = tmp_path / "survey"
+    folder.mkdir()
+    pycrg.write(folder / "lane.crg", surface.heights.T.copy(), 0.5e-3, v, 0.0, mods={}, comment="roadtex job test",
+                fmt="KRBI")
+    manifest = build_manifest(folder)
+    options = ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.1, error_budget_db=None, tol=1e-8)
+    summary = process(manifest, tmp_path / "out", options, quiet=True)
+    assert summary.failed_on_record == 0, pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    models = set(pl.read_parquet(tmp_path / "out" / "segments.parquet")["model"])
+    assert models == {"line", "areal"}
