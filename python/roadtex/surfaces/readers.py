@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +10,9 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError
 from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.readers import file_head
 from roadtex.profiles.readers.delimited import sniff_separator
+from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
 from roadtex.profiles.readers.text import column_unit, first_lines, pick_column
 from roadtex.profiles.units import unit_factor
 from roadtex.surfaces.surface import Surface
@@ -79,12 +80,7 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
     name = file.name
     if format is not None and format not in SURFACE_FORMATS:
         raise InvalidInputError(f"unknown surface format {format!r}; known formats: {', '.join(SURFACE_FORMATS)}")
-    if not file.is_file():
-        raise ProfileFormatError(f"no such file: {file}")
-    if file.stat().st_size == 0:
-        raise ProfileFormatError(f"{name} is empty")
-    with file.open("rb") as handle:
-        head = handle.read(4096)
+    head = file_head(file, 4096)
     fmt = format or guess_surface_format(file, head)
     options = {"dx": dx, "dy": dy, "height_unit": height_unit, "distance_unit": distance_unit,
                "x_column": x_column, "y_column": y_column, "z_column": z_column}
@@ -118,28 +114,11 @@ def finish(name: str, fmt: str, heights: np.ndarray, dx: float, dy: float, metad
 
 def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
     """A 2-D ``.npy`` array and its optional JSON sidecar; see :func:`read_surface`."""
-    try:
-        array = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError) as exc:
-        raise ProfileFormatError(f"{name}: not a readable .npy array: {exc}") from None
-    if array.dtype.kind not in "fiu" or array.size == 0:
-        raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {array.dtype} and {array.size} values")
+    array = load_numeric_npy(path, name)
     if array.ndim != 2 or array.shape[1] < 2:
         raise ProfileFormatError(f"{name}: a surface .npy must be 2-D [rows across, columns along] with at least "
                                  f"2 columns, got shape {array.shape} (a line profile? use read_profile)")
-    metadata: dict[str, object] = {"format": "npy"}
-    history: list[str] = []
-    sidecar = path.with_name(path.name + ".json")
-    if sidecar.exists():
-        try:
-            stored = json.loads(sidecar.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ProfileFormatError(f"{sidecar.name}: damaged metadata file: {exc}") from None
-        metadata.update(stored.get("metadata", {}))
-        history.extend(stored.get("history", []))
-        for key in ("dx", "dy", "height_unit"):
-            if options.get(key) is None:
-                options[key] = stored.get(key)
+    metadata, history, options = read_sidecar(path, options, ("dx", "dy", "height_unit"))
     if options.get("dx") is None:
         raise InvalidInputError("a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx)")
     dx = positive(options["dx"], "dx")

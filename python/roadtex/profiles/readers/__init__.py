@@ -42,6 +42,16 @@ def guess_format(path: Path, head: bytes) -> str:
     return "csv"
 
 
+def file_head(file: Path, size: int = 8192) -> bytes:
+    """The first ``size`` bytes of a data file, which must exist and not be empty (to guess its format)."""
+    if not file.is_file():
+        raise ProfileFormatError(f"no such file: {file}")
+    if file.stat().st_size == 0:
+        raise ProfileFormatError(f"{file.name} is empty")
+    with file.open("rb") as handle:
+        return handle.read(size)
+
+
 def utf16_ascii(head: bytes) -> bytes:
     return head.replace(b"\x00", b"")
 
@@ -87,12 +97,7 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
         raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
     if format is not None and format not in FORMATS:
         raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
-    if not file.is_file():
-        raise ProfileFormatError(f"no such file: {file}")
-    if file.stat().st_size == 0:
-        raise ProfileFormatError(f"{name} is empty")
-    with file.open("rb") as handle:
-        head = handle.read(8192)
+    head = file_head(file)
     fmt = format or guess_format(file, head)
     try:
         return read_as(file, name, fmt, options)
@@ -137,4 +142,4 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "read_profile"]

@@ -18,13 +18,20 @@ def sidecar_path(path: Path) -> Path:
     return path.with_name(path.name + ".json")
 
 
-def read_npy(path: Path, name: str, options: dict) -> ReadResult:
+def load_numeric_npy(path: Path, name: str) -> np.ndarray:
+    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles)."""
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
         raise ProfileFormatError(f"{name}: not a readable .npy array: {exc}") from None
     if array.dtype.kind not in "fiu" or array.size == 0:
         raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {array.dtype} and {array.size} values")
+    return array
+
+
+def read_sidecar(path: Path, options: dict, keys: tuple[str, ...]) -> tuple[dict[str, object], list[str], dict]:
+    """(metadata, history, options) of a ``.npy``: its sidecar's metadata and history, and ``options``
+    with the sidecar's values filled in for ``keys`` the caller did not give."""
     metadata: dict[str, object] = {"format": "npy"}
     history: list[str] = []
     options = dict(options)
@@ -36,9 +43,15 @@ def read_npy(path: Path, name: str, options: dict) -> ReadResult:
             raise ProfileFormatError(f"{sidecar.name}: damaged metadata file: {exc}") from None
         metadata.update(stored.get("metadata", {}))
         history.extend(stored.get("history", []))
-        for key in ("dx", "distance_unit", "height_unit"):
+        for key in keys:
             if options.get(key) is None:
                 options[key] = stored.get(key)
+    return metadata, history, options
+
+
+def read_npy(path: Path, name: str, options: dict) -> ReadResult:
+    array = load_numeric_npy(path, name)
+    metadata, history, options = read_sidecar(path, options, ("dx", "distance_unit", "height_unit"))
     array = array.astype(np.float64)
     height_factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
     if array.ndim == 1:
