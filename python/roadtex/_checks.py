@@ -77,3 +77,11 @@ def poisson_ratio(value: object, name: str = "poisson") -> float:
     if not -1.0 < number <= 0.5:
         raise InvalidInputError(f"{name} must lie in (-1, 0.5], got {value!r}")
     return number
+
+
+def moduli_array(value: object) -> np.ndarray:
+    """One Young's modulus or a 1-D sequence of them (Pa) as a float64 array (values checked by the core)."""
+    moduli = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if moduli.ndim != 1:
+        raise InvalidInputError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
+    return moduli

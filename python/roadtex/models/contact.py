@@ -10,8 +10,8 @@ from typing import Literal, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, positive_int, to_float
-from roadtex.errors import ConvergenceError, InvalidInputError
+from roadtex._checks import as_float_array, moduli_array, positive_int, to_float
+from roadtex.errors import ConvergenceError
 from roadtex.models.results import ContactBatch, ContactResult
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 
@@ -117,9 +117,7 @@ def contact_many(
         A :class:`ContactBatch` indexed ``[segment, modulus]``.
     """
     heights = as_float_array(segments, "segments", 2)
-    moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
-    if moduli.ndim != 1:
-        raise InvalidInputError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
+    moduli = moduli_array(youngs_modulus)
     threads = None if threads is None else positive_int(threads, "threads")
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")

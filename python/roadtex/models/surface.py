@@ -14,8 +14,8 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, positive_int, to_float
-from roadtex.errors import ConvergenceError, InvalidInputError
+from roadtex._checks import as_float_array, moduli_array, positive_int, to_float
+from roadtex.errors import ConvergenceError
 from roadtex.models.contact import Kernel, Method
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 
@@ -205,9 +205,7 @@ def contact_surface_many(
         A :class:`SurfaceBatch` indexed ``[tile, modulus]``.
     """
     heights = as_float_array(tiles, "tiles", 3)
-    moduli = np.atleast_1d(np.asarray(youngs_modulus, dtype=np.float64))
-    if moduli.ndim != 1:
-        raise InvalidInputError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
+    moduli = moduli_array(youngs_modulus)
     threads = None if threads is None else positive_int(threads, "threads")
     dx_f, dy_f = _spacings(dx, dy)
     p_f, nu_f = to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
