@@ -37,8 +37,9 @@ import polars as pl
 from roadtex._checks import poisson_ratio, positive, whole_number
 from roadtex.budget.noise import in_budget
 from roadtex.budget.sizes import five_smooth_ladder
-from roadtex.errors import InvalidInputError
+from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
+from roadtex.profiles.conditioning import clean
 from roadtex.profiles.profile import Profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
 from roadtex.spectra.levels import band_levels
@@ -80,6 +81,7 @@ class Pilot:
     """The reference side of a study: pilot segments, reference levels, the reference's own error."""
 
     profiles: list[Profile]
+    cleaned: list[Profile]           # ``profiles`` cleaned once (:func:`cleaned_profiles`)
     moduli: np.ndarray
     mean_pressure: float
     poisson: float
@@ -112,12 +114,22 @@ def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
     return profiles
 
 
-def segments_of(profiles: list[Profile], dx: float | None, segment_length: float,
-                spike_alpha: float | None) -> tuple[np.ndarray, list[tuple[int, float]], float]:
-    """Every segment of every profile, conditioned at ``dx`` (None: the file's): heights, (profile, start), dx."""
+def cleaned_profiles(profiles: list[Profile], spike_alpha: float | None) -> list[Profile]:
+    """Each run cleaned once (plates trimmed, spikes and outliers flagged, as the job does), so that
+    every candidate interval only repeats the cheap rest of the chain (:meth:`Profile.finished`):
+    the same profiles as :meth:`Profile.conditioned` gives, bit for bit."""
+    with warnings.catch_warnings():  # the job reports the run's cleaning itself
+        warnings.simplefilter("ignore", RoadtexWarning)
+        return [clean(profile, spike_alpha=spike_alpha)[0] for profile in profiles]
+
+
+def segments_of(cleaned: list[Profile], dx: float | None,
+                segment_length: float) -> tuple[np.ndarray, list[tuple[int, float]], float]:
+    """Every segment of every cleaned profile, finished at ``dx`` (None: the file's): heights,
+    (profile, start), dx."""
     heights, starts, used = [], [], 0.0
-    for index, profile in enumerate(profiles):
-        segments = profile.conditioned(dx=dx, spike_alpha=spike_alpha).segments(segment_length)
+    for index, profile in enumerate(cleaned):
+        segments = profile.finished(dx=dx).segments(segment_length)
         heights.append(segments.heights)
         starts.extend((index, float(s)) for s in segments.starts)
         used = segments.dx
@@ -183,7 +195,8 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     count = whole_number(n_segments, "n_segments", 1)
     kind = check_band_kind(band_kind)
     length = positive(segment_length, "segment_length", "m")
-    heights, starts, dx = segments_of(profiles, None, length, spike_alpha)
+    cleaned = cleaned_profiles(profiles, spike_alpha)
+    heights, starts, dx = segments_of(cleaned, None, length)
     texture = band_levels(heights, dx, kind=kind, periodic=True)
     bands = texture.bands.filter(pl.col("reported"))
     if bands.is_empty():
@@ -191,7 +204,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     bands = bands.with_columns(pl.Series("in_budget", in_budget(bands["band"].to_numpy(), dx, length, kind)))
     columns, _ = band_columns(texture.bands, bands["band"].to_numpy())
     chosen = np.unique(np.round(np.linspace(0, len(starts) - 1, min(count, len(starts)))).astype(np.int64))
-    pilot = Pilot(profiles, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
+    pilot = Pilot(profiles, cleaned, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
                   length, kind, spike_alpha, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0)
@@ -225,7 +238,7 @@ def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
 
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Texture level error per band over every segment at ``dx`` (resampling only), reported flags, points."""
-    heights, starts, used = segments_of(pilot.profiles, dx, pilot.segment_length, pilot.spike_alpha)
+    heights, starts, used = segments_of(pilot.cleaned, dx, pilot.segment_length)
     levels = band_levels(heights, used, kind=pilot.band_kind, periodic=True)
     columns, ok = band_columns(levels.bands, pilot.bands["band"].to_numpy())
     rows = match(starts, pilot.starts)
@@ -238,7 +251,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]
     is_reference_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
     if is_reference_dx:
         texture = np.zeros(pilot.bands.height)
-        heights, _, _ = segments_of(pilot.profiles, None, pilot.segment_length, pilot.spike_alpha)
+        heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
         heights = heights[match(pilot.starts, pilot.pilot)]
         used, points = pilot.dx, pilot.points
     else:
