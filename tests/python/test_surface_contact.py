@@ -190,3 +190,12 @@ def test_nonconvergence() -> None:
     r = roadtex.contact_surface(z, 1e-3, youngs_modulus=E, mean_pressure=P, max_iterations=2,
                                 raise_on_nonconvergence=False)
     assert not r.converged and r.residual > 1e-10
+
+
+def test_implausible_surface_warning_names_surface_rows() -> None:
+    # heights in mm given as m: the warning says which surface row, not "segment"
+    rng = np.random.default_rng(3)
+    heights = rng.normal(0.0, 2.0, size=(4, 64))  # 2 m rms: millimetres taken for metres
+    with pytest.warns(roadtex.errors.ImplausibleTextureWarning, match=r"surface row 0, 4 of 4 surface rows"):
+        roadtex.contact_surface(heights, 1e-4, youngs_modulus=2.5e6, mean_pressure=2e5,
+                                raise_on_nonconvergence=False)

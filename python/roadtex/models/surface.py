@@ -158,7 +158,7 @@ def contact_surface(
     dx_f, dy_f = _spacings(dx, dy)
     e_f, p_f, nu_f = (to_float(youngs_modulus, "youngs_modulus"), to_float(mean_pressure, "mean_pressure"),
                       to_float(poisson, "poisson"))
-    warn_if_implausible_texture(z, dx_f, "heights")
+    warn_if_implausible_texture(z, dx_f, "heights", row="surface row")
     pressure, envelope, iterations, residual, converged = _core.solve_surface(
         z, dx_f, dy_f, e_f, nu_f, p_f, bool(periodic), kernel, method, to_float(tol, "tol"),
         positive_int(max_iterations, "max_iterations"),
@@ -210,7 +210,7 @@ def contact_surface_many(
     dx_f, dy_f = _spacings(dx, dy)
     p_f, nu_f = to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     if heights.size:
-        warn_if_implausible_texture(heights.reshape(-1, heights.shape[-1]), dx_f, "tiles")
+        warn_if_implausible_texture(heights.reshape(-1, heights.shape[-1]), dx_f, "tiles", row="surface row")
     pressure, envelope, iterations, residual, converged = _core.solve_surface_many(
         heights, dx_f, dy_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),

@@ -23,8 +23,9 @@ PLAUSIBLE_RMS = 0.25
 PLAUSIBLE_MEDIAN_SLOPE = 20.0
 
 
-def implausible_texture(heights: np.ndarray, dx: float, name: str) -> str | None:
-    """Why ``heights`` (m; one row per segment) cannot be a road texture profile in metres, or None.
+def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment") -> str | None:
+    """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
+    cannot be a road texture profile in metres, or None.
 
     Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
     readings' spread only. Used by every function that takes heights (a warning) and by the bulk
@@ -50,16 +51,17 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str) -> str | None
     if not bad.any():
         return None
     first = int(np.argmax(bad))
-    where = f"{name} (segment {first}, {int(bad.sum())} of {bad.size} segments)" if rows.shape[0] > 1 else name
+    where = f"{name} ({row} {first}, {int(bad.sum())} of {bad.size} {row}s)" if rows.shape[0] > 1 else name
     return (f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
             f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
             f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
             "Heights and dx must be in metres: were the heights given in millimetres?")
 
 
-def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3) -> None:
+def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3,
+                                row: str = "segment") -> None:
     """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
-    (see :func:`implausible_texture`); the computation goes on as given."""
-    reason = implausible_texture(heights, dx, name)
+    (see :func:`implausible_texture`; ``row`` names what a row is); the computation goes on as given."""
+    reason = implausible_texture(heights, dx, name, row=row)
     if reason is not None:
         warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)
