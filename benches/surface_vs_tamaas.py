@@ -2,7 +2,8 @@
 
 The issue's case: isotropic self-affine surfaces on an N x N periodic grid of side 1 (Hurst 0.8,
 |h(q)| ~ |q|^-1.8 for 1 <= |q| < N/4, random phases, rms slope 0.1), E* = 1 (E = 0.75, nu = 0.5),
-P = 0.01 (about 20 % contact), tol 1e-8, seed 1.
+P = 0.01 (about 20 % contact), tol 1e-8 (``--tol`` for another, e.g. 1e-10: both solvers at the same
+tol), seed 1.
 
 Columns:
   time     best of up to 3 runs (1 for slow ones), kernel build included for roadtex (and the Model
@@ -14,7 +15,7 @@ Columns:
 
 Memory: ``--memory 2048`` solves one 2048^2 surface (element kernel) in a subprocess and prints its
 peak RSS. Install the peer first: ``.venv/bin/python -m pip install -r scripts/requirements-bench.txt``.
-Run: ``.venv/bin/python benches/surface_vs_tamaas.py [--sizes 128 256 512 1024] [--memory 2048]``.
+Run: ``.venv/bin/python benches/surface_vs_tamaas.py [--sizes 128 256 512 1024] [--tol 1e-10] [--memory 2048]``.
 """
 
 from __future__ import annotations
@@ -66,10 +67,10 @@ def best_time(run: Callable[[], T], repeats: int) -> tuple[float, T]:
     return best, result
 
 
-def solve_roadtex(h: np.ndarray, kernel: str, threads: int) -> roadtex.SurfaceResult:
+def solve_roadtex(h: np.ndarray, kernel: str, threads: int, tol: float = TOL) -> roadtex.SurfaceResult:
     n = h.shape[0]
     batch = roadtex.contact_surface_many(h[None], 1.0 / n, youngs_modulus=YOUNGS, poisson=POISSON,
-                                         mean_pressure=PRESSURE, kernel=kernel, tol=TOL, max_iterations=20000,
+                                         mean_pressure=PRESSURE, kernel=kernel, tol=tol, max_iterations=20000,
                                          threads=threads)
     return batch[0, 0]
 
@@ -95,13 +96,13 @@ def captured_stderr_fd() -> Iterator[list[str]]:
 _LOG_LINE = re.compile(r"^\s*(\d+)\s+[-+0-9.eEinfa]+\s+[-+0-9.eEinfa]+\s*$")
 
 
-def solve_tamaas(tm: object, h: np.ndarray, sign: float) -> tuple[np.ndarray, int | None]:
+def solve_tamaas(tm: object, h: np.ndarray, sign: float, tol: float = TOL) -> tuple[np.ndarray, int | None]:
     n = h.shape[0]
     surface = np.ascontiguousarray(sign * h).copy()
     with captured_stderr_fd() as log:
         model = tm.Model(tm.model_type.basic_2d, [1.0, 1.0], [n, n])  # type: ignore[attr-defined]
         model.E, model.nu = YOUNGS, POISSON
-        solver = tm.PolonskyKeerRey(model, surface, TOL, tm.PolonskyKeerRey.pressure,  # type: ignore[attr-defined]
+        solver = tm.PolonskyKeerRey(model, surface, tol, tm.PolonskyKeerRey.pressure,  # type: ignore[attr-defined]
                                     tm.PolonskyKeerRey.pressure)  # type: ignore[attr-defined]
         solver.max_iter = 100000
         solver.dump_freq = 100001
@@ -131,14 +132,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="*", default=[128, 256, 512, 1024])
     parser.add_argument("--memory", type=int, nargs="*", default=[])
+    parser.add_argument("--tol", type=float, default=TOL, help="both solvers' tol (default 1e-8, the issue's)")
     args = parser.parse_args()
+    tol = args.tol
     try:
         import tamaas as tm
     except Exception as exc:  # ImportError, or tamaas failing to load its extension
         tm = None
         print(f"tamaas unavailable ({exc}); roadtex only")
-    print(f"surface_vs_tamaas, {datetime.date.today()}, {os.cpu_count()} cores (shared), tol {TOL:g}; "
-          f"tamaas {getattr(tm, '__version__', '-')} one thread")
+    print(f"surface_vs_tamaas, {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
+          f"{os.cpu_count()} cores (shared, load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}), "
+          f"tol {tol:g}; tamaas {getattr(tm, '__version__', '-')} one thread")
     sign = 1.0
     if tm is not None:
         h = self_affine_surface(64)
@@ -156,7 +160,7 @@ def main() -> None:
         for threads in (1, 2):
             for kernel in ("spectral", "element"):
                 times[kernel, threads], results[kernel, threads] = best_time(
-                    lambda: solve_roadtex(h, kernel, threads), repeats)  # noqa: B023
+                    lambda: solve_roadtex(h, kernel, threads, tol), repeats)  # noqa: B023
         sp, el = results["spectral", 1], results["element", 1]
         assert np.array_equal(sp.pressure, results["spectral", 2].pressure), "thread count changed the result"
         row = [f"{n}^2", f"{sp.contact_fraction:.3f}"] + [f"{times[k, t]:.3f} s" for t in (1, 2)
@@ -164,13 +168,14 @@ def main() -> None:
         row.append(f"{sp.iterations}/{el.iterations}")
         el_vs_sp = np.max(np.abs(el.pressure - sp.pressure)) / PRESSURE
         if tm is not None:
-            tm_time, (tm_p, tm_iters) = best_time(lambda: solve_tamaas(tm, h, sign), 1 if n >= 512 else repeats)
+            tm_time, (tm_p, tm_iters) = best_time(lambda: solve_tamaas(tm, h, sign, tol), 1 if n >= 512 else repeats)
             row += [f"{tm_time:.2f} s", str(tm_iters), f"{np.max(np.abs(tm_p - sp.pressure)) / PRESSURE:.1e}",
                     f"{el_vs_sp:.1e}"]
             row += [f"{tm_time / times[k, t]:.1f}x" for t in (1, 2) for k in ("spectral", "element")]
         else:
             row += ["-", "-", "-", f"{el_vs_sp:.1e}"] + ["-"] * 4
         print(" | ".join(row), flush=True)
+    print(f"load average at the end: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
     for n in args.memory:
         memory(n)
     print(f"(this process: peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20:.2f} GiB)")

@@ -2,7 +2,7 @@
 //! determinism of the parallel batch.
 
 use roadtex::surface::synthetic::self_affine_surface;
-use roadtex::surface::{solve_surface, solve_surfaces, Grid};
+use roadtex::surface::{solve_surface, solve_surfaces, Grid, SurfaceSolver, SurfaceWorkspace};
 use roadtex::{KernelKind, Material, Method, SolverOptions};
 
 fn rough(ny: usize, nx: usize, seed: u64) -> Vec<f64> {
@@ -53,4 +53,23 @@ fn batch_is_bitwise_identical_whatever_the_thread_count() {
     assert!(one.iter().all(|s| s.converged));
     let fraction = one[0].pressure.iter().filter(|&&p| p > 0.0).count() as f64 / grid.len() as f64;
     assert!((0.1..0.35).contains(&fraction), "{fraction}");
+}
+
+#[test]
+fn workspace_counts_the_transform_pairs_of_its_solves() {
+    // Each CG iteration applies the preconditioner and C d (two 2-D FFT pairs), so a solve applies
+    // at least two pairs per iteration; the counter adds up over the solves of one workspace.
+    let grid = Grid { ny: 32, nx: 48, dx: 1e-3, dy: 1e-3 };
+    let solver = SurfaceSolver::new(grid, SolverOptions { tol: 1e-10, ..Default::default() }).unwrap();
+    let rubber = Material::new(4e6, 0.5).unwrap();
+    let mut workspace = SurfaceWorkspace::default();
+    assert_eq!(workspace.fft_pairs(), 0);
+    let z = rough(32, 48, 11);
+    let first = solver.solve_from(&mut workspace, &z, rubber, 2e5, None).unwrap();
+    let after_one = workspace.fft_pairs();
+    assert!(first.converged && first.iterations > 0);
+    assert!(after_one >= 2 * first.iterations as u64, "{after_one} pairs for {} iterations", first.iterations);
+    let second = solver.solve_from(&mut workspace, &z, rubber, 2e5, None).unwrap();
+    assert_eq!(second, first);
+    assert_eq!(workspace.fft_pairs(), 2 * after_one);
 }

@@ -22,10 +22,17 @@ use crate::solver::{
     MAX_DIRECT_ELEMENTS,
 };
 
-/// Bound-constrained CG steps before the active-set sweeps on a cold start. On the issue's
-/// self-affine surfaces (512^2) 4 steps gave 47 iterations, 10 gave 39 and 20 gave 38, at about
-/// the same time: the surface sweeps run without the line solver's island deflation.
-const WARM_UP: usize = 10;
+/// Bound-constrained CG steps before the active-set sweeps on a cold start, by N: 10 up to
+/// 2^14 points, 12 at 2^16, 16 at 2^18 (512^2), 20 at 2^20 (1024^2), 24 at 2^22. The surface
+/// sweeps run without the line solver's island deflation, so each sweep needs more iterations at
+/// larger N and a better start pays more. On the self-affine surfaces (seeds 1 to 3, tol
+/// 1e-10) 20 steps instead of 10 cut the FFT pairs of a 1024^2 solve from 172/163/162 to
+/// 145/154/149; at 512^2 16 steps gave 113 to 117 pairs against 118/119/119, and from 128^2 to
+/// 256^2 the count moved by at most 3 either way.
+fn warm_up_steps(n: usize) -> usize {
+    let bits = (usize::BITS - n.leading_zeros()) as usize;
+    (2 * bits).saturating_sub(22).clamp(10, 30)
+}
 
 /// Fewest elements a surface may have along each direction.
 pub const MIN_SIDE: usize = 4;
@@ -81,6 +88,18 @@ enum Model {
 #[derive(Default)]
 pub struct SurfaceWorkspace {
     inner: Inner,
+}
+
+impl SurfaceWorkspace {
+    /// 2-D FFT pairs (operator applications) applied with this workspace so far, all solves
+    /// together: the cost counter of `benches/surface.rs`.
+    pub fn fft_pairs(&self) -> u64 {
+        match &self.inner {
+            Inner::Empty => 0,
+            Inner::Periodic(w) => SurfacePeriodic::fft_pairs(w.scratch()),
+            Inner::Finite(w) => SurfaceFinite::fft_pairs(w.scratch()),
+        }
+    }
 }
 
 #[derive(Default)]
@@ -193,7 +212,7 @@ impl SurfaceSolver {
                     scale,
                     tol: self.options.tol,
                     max_iterations: self.options.max_iterations,
-                    warm_up: Some(WARM_UP),
+                    warm_up: Some(warm_up_steps(z.len())),
                 };
                 cg::solve(op, None, &problem, initial.as_deref(), work)
             }
