@@ -383,8 +383,10 @@ fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
         }
         let d = pivot.sqrt();
         e[k * dim + k] = d;
+        // One division per pivot, not per entry (a division's latency dominated this loop).
+        let inverse = 1.0 / d;
         for i in k + 1..dim {
-            e[i * dim + k] /= d;
+            e[i * dim + k] *= inverse;
             column[i] = e[i * dim + k];
         }
         for i in k + 1..dim {
