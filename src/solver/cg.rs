@@ -41,18 +41,24 @@ const MAX_RUN_PAIRS: usize = 1_000_000_000;
 
 /// Coarse-space dimension (runs of contact, grouped beyond it) for a set of `runs` runs at size N.
 ///
-/// 256 vectors up to N = 2^16, N / 256 beyond, and never fewer than one per three runs (with
-/// fewer, iterations grow faster with N: on self-affine profiles 65-75 iterations at 2^16 and
-/// 160-190 at 2^18, against 56-61 and 72-73 with one per three runs); at most N / 16, where the
-/// coarse work would outweigh the FFTs, and 2,048 (factoring E costs dim^3 / 3). Rough and
-/// precise sweeps use the same dimension, so that the precise sweep on a set the last rough
-/// sweep left unchanged reuses its coarse space: a larger space for the precise sweep (1,024 to
-/// 2,048 vectors) saved at most one iteration and cost a fresh assembly and factorisation, 8 to
-/// 10 % of a solve at 2^16.
+/// 256 vectors up to N = 2^16, N / 256 beyond, never fewer than one per three runs (with fewer,
+/// 65-75 iterations at 2^16 and 160-190 at 2^18 on self-affine profiles, against 56-61 and
+/// 72-73), at most N / 16 and 2,048 (factoring E costs dim^3 / 3). Rough and precise sweeps share
+/// it, so a precise sweep on a set left unchanged reuses the space: a larger precise space (1,024
+/// to 2,048) saved at most one iteration for a fresh assembly and factorisation (8-10 % at 2^16).
 fn coarse_dim(n: usize, runs: usize) -> usize {
     const MAX_DIM: usize = 2048;
     (n / 256).clamp(256, MAX_DIM).max(runs / 3).min((n / 16).max(32)).min(MAX_DIM)
 }
+
+/// An update changing more than 1 / UNSETTLED of the set marks it as still moving: the next space,
+/// if above SMALL_UNSETTLED_DIM vectors, is halved. Self-affine, seeds 0-2: 2^16 as fast, 2^17
+/// 15 % and 2^18 25 % faster (+0 to 8 iterations); a quarter gave less, and N = 1,000 (at most 62
+/// vectors) lost with any cut. Not beyond 2^18: at 2^20 the group sums dominate and the switch
+/// back costs a fresh assembly (173 iterations instead of 148, 20.5 s against 21.2 s).
+const UNSETTLED: usize = 20;
+const SMALL_UNSETTLED_DIM: usize = 256;
+const MAX_UNSETTLED_N: usize = 1 << 18;
 
 /// Most points whose pressure is dropped from the set between sweeps for which C p is updated
 /// column by column (O(N) each) instead of by a fresh FFT product.
@@ -161,6 +167,7 @@ pub(crate) fn solve<Op: Compliance>(
         tol: problem.tol,
         coarse,
         groups: None,
+        last_changes: 0,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -185,6 +192,8 @@ struct Context<'a, Op: Compliance> {
     coarse: Option<CoarseSpace>,
     /// The group matrix of this solve's last grouped coarse space, see [`GroupCache`].
     groups: Option<GroupCache>,
+    /// Points the last set update changed (0 before the first).
+    last_changes: usize,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -284,6 +293,7 @@ impl<Op: Compliance> Context<'_, Op> {
                 changes = update_set(z, p, &mut w.mask, gap, &w.displacement);
             }
             let changed = changes > 0;
+            self.last_changes = changes;
             if !changed {
                 let res = residual(p, gap, self.scale);
                 if res <= self.tol {
@@ -345,7 +355,13 @@ impl<Op: Compliance> Context<'_, Op> {
             return None;
         }
         let n = self.z.len();
-        let dim = coarse_dim(n, islands.len());
+        let mut dim = coarse_dim(n, islands.len());
+        // While the set still moves (the last update changed more than 1 / UNSETTLED of it), a
+        // large space is halved: it is factored again every sweep and the set will change anyway.
+        let count = self.w.mask.iter().filter(|&&m| m).count();
+        if dim > SMALL_UNSETTLED_DIM && n <= MAX_UNSETTLED_N && self.last_changes * UNSETTLED > count {
+            dim /= 2;
+        }
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
         if let Some(current) = current.filter(|c| c.is_same(&islands, dim)) {
