@@ -23,7 +23,7 @@
 //! height. Load balance holds to rounding at every step.
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
-use super::reduce::{bounded_gap, dot, mask_and_project, masked_sum, max_abs, project_zero_sum, sum4};
+use super::reduce::{bounded_gap, cg_update, dot, dot2, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, project_zero_sum, sum4};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
@@ -41,17 +41,24 @@ const MAX_RUN_PAIRS: usize = 1_000_000_000;
 
 /// Coarse-space dimension (runs of contact, grouped beyond it) for a set of `runs` runs at size N.
 ///
-/// Rough sweeps refactor E every sweep, so they use a smaller space: 256 vectors up to N = 2^16,
-/// N / 256 beyond, and never fewer than one per three runs (with fewer, iterations grow faster
-/// with N: on self-affine profiles 65-75 iterations at 2^16 and 160-190 at 2^18, against 56-61
-/// and 72-73 with one per three runs). Precise sweeps use 1,024 to 2,048. Both stay at or below
-/// N / 16, where the coarse work would outweigh the FFTs, and at or below 2,048 (factoring E
-/// costs dim^3 / 3).
-fn coarse_dim(n: usize, runs: usize, rough: bool) -> usize {
+/// 256 vectors up to N = 2^16, N / 256 beyond, never fewer than one per three runs (with fewer,
+/// 65-75 iterations at 2^16 and 160-190 at 2^18 on self-affine profiles, against 56-61 and
+/// 72-73), at most N / 16 and 2,048 (factoring E costs dim^3 / 3). Rough and precise sweeps share
+/// it, so a precise sweep on a set left unchanged reuses the space: a larger precise space (1,024
+/// to 2,048) saved at most one iteration for a fresh assembly and factorisation (8-10 % at 2^16).
+fn coarse_dim(n: usize, runs: usize) -> usize {
     const MAX_DIM: usize = 2048;
-    let wanted = if rough { (n / 256).clamp(256, MAX_DIM).max(runs / 3) } else { (n / 64).clamp(1024, MAX_DIM) };
-    wanted.min((n / 16).max(32)).min(MAX_DIM)
+    (n / 256).clamp(256, MAX_DIM).max(runs / 3).min((n / 16).max(32)).min(MAX_DIM)
 }
+
+/// An update changing more than 1 / UNSETTLED of the set marks it as still moving: the next space,
+/// if above SMALL_UNSETTLED_DIM vectors, is halved. Self-affine, seeds 0-2: 2^16 as fast, 2^17
+/// 15 % and 2^18 25 % faster (+0 to 8 iterations); a quarter gave less, and N = 1,000 (at most 62
+/// vectors) lost with any cut. Not beyond 2^18: at 2^20 the group sums dominate and the switch
+/// back costs a fresh assembly (173 iterations instead of 148, 20.5 s against 21.2 s).
+const UNSETTLED: usize = 20;
+const SMALL_UNSETTLED_DIM: usize = 256;
+const MAX_UNSETTLED_N: usize = 1 << 18;
 
 /// Most points whose pressure is dropped from the set between sweeps for which C p is updated
 /// column by column (O(N) each) instead of by a fresh FFT product.
@@ -160,6 +167,7 @@ pub(crate) fn solve<Op: Compliance>(
         tol: problem.tol,
         coarse,
         groups: None,
+        last_changes: 0,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -184,6 +192,8 @@ struct Context<'a, Op: Compliance> {
     coarse: Option<CoarseSpace>,
     /// The group matrix of this solve's last grouped coarse space, see [`GroupCache`].
     groups: Option<GroupCache>,
+    /// Points the last set update changed (0 before the first).
+    last_changes: usize,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -277,11 +287,13 @@ impl<Op: Compliance> Context<'_, Op> {
 
             // Set update from the tracked C p; a set that looks settled is checked on a fresh one.
             let (op, z, w) = (self.op, self.z, &mut *self.w);
-            let mut changed = update_set(z, p, &mut w.mask, gap, &w.displacement);
-            if !changed {
+            let mut changes = update_set(z, p, &mut w.mask, gap, &w.displacement);
+            if changes == 0 {
                 op.displacement(p, &mut w.displacement, &mut w.scratch);
-                changed = update_set(z, p, &mut w.mask, gap, &w.displacement);
+                changes = update_set(z, p, &mut w.mask, gap, &w.displacement);
             }
+            let changed = changes > 0;
+            self.last_changes = changes;
             if !changed {
                 let res = residual(p, gap, self.scale);
                 if res <= self.tol {
@@ -335,7 +347,7 @@ impl<Op: Compliance> Context<'_, Op> {
 
     /// The coarse space for the set in `w.mask`: the current one when it would be built again,
     /// else a new one; None without deflation or with fewer than two runs.
-    fn coarse_space(&mut self, rough: bool, deflate: bool) -> Option<CoarseSpace> {
+    fn coarse_space(&mut self, deflate: bool) -> Option<CoarseSpace> {
         let current = self.coarse.take();
         let pair_sums = self.pair_sums.filter(|_| deflate)?;
         let islands = runs(&self.w.mask);
@@ -343,7 +355,13 @@ impl<Op: Compliance> Context<'_, Op> {
             return None;
         }
         let n = self.z.len();
-        let dim = coarse_dim(n, islands.len(), rough);
+        let mut dim = coarse_dim(n, islands.len());
+        // While the set still moves (the last update changed more than 1 / UNSETTLED of it), a
+        // large space is halved: it is factored again every sweep and the set will change anyway.
+        let count = self.w.mask.iter().filter(|&&m| m).count();
+        if dim > SMALL_UNSETTLED_DIM && n <= MAX_UNSETTLED_N && self.last_changes * UNSETTLED > count {
+            dim /= 2;
+        }
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
         if let Some(current) = current.filter(|c| c.is_same(&islands, dim)) {
@@ -395,7 +413,7 @@ impl<Op: Compliance> Context<'_, Op> {
         }
         // `w.mask` stays the set `coarse` was built for until this returns: add_prolonged shifts
         // exactly those points, and restrict's weights are run lengths over the set's size.
-        let coarse = self.coarse_space(how.rough, how.deflate);
+        let coarse = self.coarse_space(how.deflate);
         self.set_residual(p, count, !how.displacement_known);
         // A-DEF2 start: the coarse solve puts the right load on every island at once.
         if let Some(coarse) = &coarse {
@@ -411,7 +429,9 @@ impl<Op: Compliance> Context<'_, Op> {
 
         let mut rho_before = 0.0;
         let mut iterations = 0;
-        while max_abs(&w.residual) > stop && iterations < how.max_iterations {
+        // max|r|, kept up to date by the update pass (no separate pass per iteration).
+        let mut residual_norm = start_norm;
+        while residual_norm > stop && iterations < how.max_iterations {
             // y = M r on A, zero-sum.
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
             mask_and_project(&mut w.preconditioned, &w.mask, count);
@@ -425,14 +445,15 @@ impl<Op: Compliance> Context<'_, Op> {
                 coarse.solve(&mut w.coarse_rhs);
                 coarse.add_prolonged(&w.coarse_rhs, -1.0, &w.mask, &mut w.preconditioned);
             }
-            let rho = dot(&w.residual, &w.preconditioned);
+            // rho = r . y and, for the Polak-Ribiere beta, r . y_previous, in one pass (`previous`
+            // is read only after this solve wrote it: iterations > 0).
+            let (rho, r_previous) = dot2(&w.residual, &w.preconditioned, &w.previous);
             if !(rho > 0.0) {
                 break;
             }
             // Polak-Ribiere (flexible) beta: equal to Fletcher-Reeves in exact arithmetic, and robust
-            // when the coarse solve makes the preconditioner slightly inexact. `previous` is read
-            // only after this solve wrote it (iterations > 0).
-            let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
+            // when the coarse solve makes the preconditioner slightly inexact.
+            let beta = if iterations == 0 { 0.0 } else { ((rho - r_previous) / rho_before).max(0.0) };
             if iterations == 0 {
                 // Not beta * d: d holds the last solve's direction (`+ 0.0` as y + 0 * d would give).
                 for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
@@ -443,24 +464,19 @@ impl<Op: Compliance> Context<'_, Op> {
                     *d = y + beta * *d;
                 }
             }
-            w.previous.copy_from_slice(&w.preconditioned);
+            // y becomes `previous` (the next precondition overwrites all of `preconditioned`).
+            std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let mean = masked_sum(&w.applied_direction, &w.mask) / count as f64;
-            let curvature = dot(&w.direction, &w.applied_direction);
+            let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask);
+            let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {
                 break;
             }
             let alpha = rho / curvature;
-            // One pass over plain slices (no bounds checks, no reloads): it vectorises. Off the set
-            // the residual is zero and stays so.
+            // One pass over plain slices: p, C p and r move, off the set r stays zero; max|r| too.
             let (direction, applied) = (&w.direction[..], &w.applied_direction[..]);
-            let moving = p.iter_mut().zip(w.displacement.iter_mut()).zip(w.residual.iter_mut());
-            for (((pi, ui), ri), ((&d, &a), &m)) in moving.zip(direction.iter().zip(applied).zip(&w.mask)) {
-                *pi += alpha * d;
-                *ui += alpha * a;
-                *ri -= if m { alpha * (a - mean) } else { 0.0 };
-            }
+            residual_norm = cg_update([p, &mut w.displacement[..], &mut w.residual[..]], direction, applied, &w.mask, alpha, mean);
             rho_before = rho;
             iterations += 1;
         }
@@ -565,7 +581,7 @@ impl<Op: Compliance> Context<'_, Op> {
 /// The gap for displacement `u` = C p, with the rigid approach that makes it zero-mean on `mask`,
 /// and the next trial set in `mask` (points with p <= 0 leave, penetrating points join); returns
 /// whether the set changed.
-fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> bool {
+fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> usize {
     let n = z.len();
     for i in 0..n {
         gap[i] = u[i] - z[i];
@@ -573,10 +589,10 @@ fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64
     let count = mask.iter().filter(|&&m| m).count();
     let approach = -masked_sum(gap, mask) / count as f64;
     gap.iter_mut().for_each(|g| *g += approach);
-    let mut changed = false;
+    let mut changed = 0usize;
     for i in 0..n {
         let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
-        changed |= next != mask[i];
+        changed += (next != mask[i]) as usize;
         mask[i] = next;
     }
     changed
