@@ -23,7 +23,10 @@
 //! height. Load balance holds to rounding at every step.
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
-use super::reduce::{bounded_gap, cg_update, dot, dot2, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, project_zero_sum, sum4};
+use super::reduce::{
+    bounded_gap, cg_update, dot, dot2, free_direction, free_set, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, new_direction,
+    project_zero_sum, scale, step_and_count_negative, sum4,
+};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
@@ -454,16 +457,9 @@ impl<Op: Compliance> Context<'_, Op> {
             // Polak-Ribiere (flexible) beta: equal to Fletcher-Reeves in exact arithmetic, and robust
             // when the coarse solve makes the preconditioner slightly inexact.
             let beta = if iterations == 0 { 0.0 } else { ((rho - r_previous) / rho_before).max(0.0) };
-            if iterations == 0 {
-                // Not beta * d: d holds the last solve's direction (`+ 0.0` as y + 0 * d would give).
-                for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
-                    *d = y + 0.0;
-                }
-            } else {
-                for (d, &y) in w.direction.iter_mut().zip(&w.preconditioned) {
-                    *d = y + beta * *d;
-                }
-            }
+            // Not beta * d on the first iteration: d holds the last solve's direction (`+ 0.0` as
+            // y + 0 * d would give).
+            new_direction(&mut w.direction, &w.preconditioned, if iterations == 0 { None } else { Some(beta) });
             // y becomes `previous` (the next precondition overwrites all of `preconditioned`).
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
@@ -515,12 +511,7 @@ impl<Op: Compliance> Context<'_, Op> {
                 debug_assert!(fresh);
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= self.tol };
             }
-            let mut free_count = 0;
-            for (((f, r), &pi), &g) in free.iter_mut().zip(w.residual.iter_mut()).zip(&p).zip(&gap) {
-                *f = pi > 0.0 || g < 0.0;
-                free_count += *f as usize;
-                *r = if *f { -g } else { 0.0 };
-            }
+            let free_count = free_set(&mut free, &mut w.residual, &p, &gap);
             project_zero_sum(&mut w.residual, &free, free_count);
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
             mask_and_project(&mut w.preconditioned, &free, free_count);
@@ -530,11 +521,7 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             // `direction` and `previous` are read only after this call wrote them (iterations > 0).
             let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-            let first = iterations == 0;
-            for ((d, &y), &f) in w.direction.iter_mut().zip(&w.preconditioned).zip(&free) {
-                let previous = if first { 0.0 } else { *d };
-                *d = if f { y + beta * previous } else { 0.0 };
-            }
+            free_direction(&mut w.direction, &w.preconditioned, &free, beta, iterations == 0);
             project_zero_sum(&mut w.direction, &free, free_count);
             w.previous.copy_from_slice(&w.preconditioned);
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
@@ -546,12 +533,7 @@ impl<Op: Compliance> Context<'_, Op> {
             // C p follows p: + alpha C d, then a column per clipped point (a fresh product instead
             // when more than a few are clipped), then the load rescaling.
             clipped_at.clear();
-            let mut clipped = 0usize;
-            for ((pi, ui), (&d, &a)) in p.iter_mut().zip(w.displacement.iter_mut()).zip(w.direction.iter().zip(&w.applied_direction)) {
-                *pi += alpha * d;
-                *ui += alpha * a;
-                clipped += (*pi < 0.0) as usize;
-            }
+            let clipped = step_and_count_negative(&mut p, &mut w.displacement, &w.direction, &w.applied_direction, alpha);
             if clipped > 0 {
                 for (i, pi) in p.iter_mut().enumerate().filter(|(_, pi)| **pi < 0.0) {
                     if clipped <= MAX_COLUMN_UPDATES {
@@ -569,8 +551,8 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             if clipped > 0 {
                 let factor = self.target_sum / total;
-                p.iter_mut().for_each(|pi| *pi *= factor);
-                w.displacement.iter_mut().for_each(|u| *u *= factor);
+                scale(&mut p, factor);
+                scale(&mut w.displacement, factor);
             }
             rho_before = rho;
             iterations += 1;

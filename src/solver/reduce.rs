@@ -3,12 +3,141 @@
 //! The reductions keep four partial sums (or maxima) in a fixed order: they vectorise, where one
 //! running sum is a chain of dependent additions (at N = 1,000 eight such passes cost as much as
 //! two FFT pairs), and they are deterministic, whatever the thread count.
+//!
+//! Vectors of [`PARALLEL_MIN`] points or more (large surfaces, very long profiles) are processed
+//! in parallel (rayon) in blocks of [`BLOCK`] points fixed by N alone: each block by the
+//! sequential code, the block results combined in block order. A result therefore depends on N,
+//! never on the thread count or on which thread ran a block. Below it the passes stay sequential:
+//! splitting costs more than it saves there.
+
+use rayon::prelude::*;
 
 use super::residual;
+
+/// Vectors at least this long are processed in parallel blocks.
+pub(crate) const PARALLEL_MIN: usize = 1 << 17;
+/// Points per block of a parallel pass (a multiple of 4, so blocks keep the four-sum pattern).
+pub(crate) const BLOCK: usize = 1 << 14;
+
+/// Whether a pass over `n` points runs in parallel blocks.
+pub(crate) fn parallel(n: usize) -> bool {
+    n >= PARALLEL_MIN
+}
+
+/// Sum of `values` in order (block partial sums combined deterministically).
+fn in_order(values: Vec<f64>) -> f64 {
+    values.into_iter().fold(0.0, |total, x| total + x)
+}
+
+/// Pairs of block partial sums combined in order.
+fn pairs_in_order(values: Vec<(f64, f64)>) -> (f64, f64) {
+    values.into_iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y))
+}
+
+pub(crate) fn masked_sum(v: &[f64], mask: &[bool]) -> f64 {
+    let n = v.len().min(mask.len());
+    if !parallel(n) {
+        return masked_sum_seq(v, mask);
+    }
+    in_order(v[..n].par_chunks(BLOCK).zip(mask[..n].par_chunks(BLOCK)).map(|(v, m)| masked_sum_seq(v, m)).collect())
+}
+
+pub(crate) fn sum4(v: &[f64]) -> f64 {
+    if !parallel(v.len()) {
+        return sum4_seq(v);
+    }
+    in_order(v.par_chunks(BLOCK).map(sum4_seq).collect())
+}
+
+pub(crate) fn max_abs(v: &[f64]) -> f64 {
+    if !parallel(v.len()) {
+        return max_abs_seq(v);
+    }
+    v.par_chunks(BLOCK).map(max_abs_seq).collect::<Vec<_>>().into_iter().fold(0.0, f64::max)
+}
+
+/// Dot product with four interleaved partial sums (vectorises; fixed order, so deterministic).
+pub(crate) fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    if !parallel(n) {
+        return dot4_seq(a, b);
+    }
+    in_order(a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).map(|(a, b)| dot4_seq(a, b)).collect())
+}
+
+/// (a . b, a . c) in one pass, each with the four partial sums of [`dot4`] (the same results).
+pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+    let n = a.len().min(b.len()).min(c.len());
+    if !parallel(n) {
+        return dot2_seq(a, b, c);
+    }
+    let blocks = a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).zip(c[..n].par_chunks(BLOCK));
+    pairs_in_order(blocks.map(|((a, b), c)| dot2_seq(a, b, c)).collect())
+}
+
+/// (sum of b over `mask`, a . b) in one pass: [`masked_sum`] and [`dot4`] with the same results.
+pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
+    let n = a.len().min(b.len()).min(mask.len());
+    if !parallel(n) {
+        return masked_sum_and_dot_seq(a, b, mask);
+    }
+    let blocks = a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).zip(mask[..n].par_chunks(BLOCK));
+    pairs_in_order(blocks.map(|((a, b), m)| masked_sum_and_dot_seq(a, b, m)).collect())
+}
+
+/// The CG update in one pass: p += alpha d, u += alpha a, r -= alpha (a - mean) on `mask` (r stays
+/// as it is off it); returns max|r| afterwards (four running maxima, as [`max_abs`]).
+pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
+    let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(mask.len());
+    if !parallel(n) {
+        return cg_update_seq([p, u, r], d, a, mask, alpha, mean);
+    }
+    let outputs = p[..n].par_chunks_mut(BLOCK).zip(u[..n].par_chunks_mut(BLOCK)).zip(r[..n].par_chunks_mut(BLOCK));
+    let inputs = d[..n].par_chunks(BLOCK).zip(a[..n].par_chunks(BLOCK)).zip(mask[..n].par_chunks(BLOCK));
+    let worst: Vec<f64> = outputs.zip(inputs).map(|(((p, u), r), ((d, a), m))| cg_update_seq([p, u, r], d, a, m, alpha, mean)).collect();
+    worst.into_iter().fold(0.0, f64::max)
+}
+
+/// v *= factor, elementwise (in parallel blocks for long vectors).
+pub(crate) fn scale(v: &mut [f64], factor: f64) {
+    if !parallel(v.len()) {
+        v.iter_mut().for_each(|x| *x *= factor);
+        return;
+    }
+    v.par_chunks_mut(BLOCK).for_each(|v| v.iter_mut().for_each(|x| *x *= factor));
+}
 
 /// The bounded CG's gap for displacement `u` = C p (the approach that makes it zero-mean where
 /// p > 0) into `gap`; returns the residual.
 pub(crate) fn bounded_gap(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64], scale: f64) -> f64 {
+    let n = z.len().min(p.len()).min(u.len()).min(gap.len());
+    let (z, p, u, gap) = (&z[..n], &p[..n], &u[..n], &mut gap[..n]);
+    let (sum, count) = if parallel(n) {
+        let blocks = gap.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).zip(z.par_chunks(BLOCK)).zip(p.par_chunks(BLOCK));
+        let parts: Vec<(f64, usize)> = blocks.map(|(((g, u), z), p)| open_gap_seq(z, p, u, g)).collect();
+        parts.into_iter().fold((0.0, 0), |(s, c), (x, k)| (s + x, c + k))
+    } else {
+        open_gap_seq(z, p, u, gap)
+    };
+    let approach = -sum / count as f64;
+    if !parallel(n) {
+        gap.iter_mut().for_each(|g| *g += approach);
+        return residual(p, gap, scale);
+    }
+    // residual is a maximum over points: per block (scale 1, exact), then over blocks.
+    let worst: Vec<f64> = gap
+        .par_chunks_mut(BLOCK)
+        .zip(p.par_chunks(BLOCK))
+        .map(|(g, p)| {
+            g.iter_mut().for_each(|g| *g += approach);
+            residual(p, g, 1.0)
+        })
+        .collect();
+    worst.into_iter().fold(0.0, f64::max) / scale
+}
+
+/// gap = u - z, and (the sum of the gap where p > 0, the number of such points).
+fn open_gap_seq(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64]) -> (f64, usize) {
     for ((g, &ui), &zi) in gap.iter_mut().zip(u).zip(z) {
         *g = ui - zi;
     }
@@ -23,9 +152,23 @@ pub(crate) fn bounded_gap(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64], scal
             count += on as usize;
         }
     }
-    let approach = -((acc[0] + acc[1]) + (acc[2] + acc[3]) + tail) / count as f64;
-    gap.iter_mut().for_each(|g| *g += approach);
-    residual(p, gap, scale)
+    ((acc[0] + acc[1]) + (acc[2] + acc[3]) + tail, count)
+}
+
+/// v -= mean on `mask` (in parallel blocks for long vectors).
+fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
+    let task = |v: &mut [f64], mask: &[bool]| {
+        for (x, &m) in v.iter_mut().zip(mask) {
+            if m {
+                *x -= mean;
+            }
+        }
+    };
+    if parallel(v.len()) {
+        v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).for_each(|(v, m)| task(v, m));
+    } else {
+        task(v, mask);
+    }
 }
 
 pub(crate) fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {
@@ -33,17 +176,26 @@ pub(crate) fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {
         return;
     }
     let mean = masked_sum(v, mask) / count as f64;
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if m {
-            *x -= mean;
-        }
-    }
+    subtract_on_mask(v, mask, mean);
 }
 
 /// v zero off `mask`, then zero-sum on it ([`project_zero_sum`]): the zeroing and the sum in one pass.
 pub(crate) fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
     let n = v.len().min(mask.len());
     let (v, mask) = (&mut v[..n], &mask[..n]);
+    let sum = if parallel(n) {
+        in_order(v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).map(|(v, m)| mask_and_sum_seq(v, m)).collect())
+    } else {
+        mask_and_sum_seq(v, mask)
+    };
+    if count == 0 {
+        return;
+    }
+    subtract_on_mask(v, mask, sum / count as f64);
+}
+
+/// v zero off `mask`; returns the sum of v (over the mask).
+fn mask_and_sum_seq(v: &mut [f64], mask: &[bool]) -> f64 {
     let mut acc = [0.0; 4];
     let mut v4 = v.chunks_exact_mut(4);
     let m4 = mask.chunks_exact(4);
@@ -61,19 +213,10 @@ pub(crate) fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
         }
         tail += if m { *x } else { 0.0 };
     }
-    if count == 0 {
-        return;
-    }
-    let mean = ((acc[0] + acc[1]) + (acc[2] + acc[3]) + tail) / count as f64;
-    for (x, &m) in v.iter_mut().zip(mask) {
-        if m {
-            *x -= mean;
-        }
-    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// Sum of v over the points of `mask`.
-pub(crate) fn masked_sum(v: &[f64], mask: &[bool]) -> f64 {
+fn masked_sum_seq(v: &[f64], mask: &[bool]) -> f64 {
     let n = v.len().min(mask.len());
     let (v, mask) = (&v[..n], &mask[..n]);
     let mut acc = [0.0; 4];
@@ -87,7 +230,7 @@ pub(crate) fn masked_sum(v: &[f64], mask: &[bool]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-pub(crate) fn sum4(v: &[f64]) -> f64 {
+fn sum4_seq(v: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let v4 = v.chunks_exact(4);
     let tail: f64 = v4.remainder().iter().sum();
@@ -103,7 +246,7 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     dot4(a, b)
 }
 
-pub(crate) fn max_abs(v: &[f64]) -> f64 {
+fn max_abs_seq(v: &[f64]) -> f64 {
     let mut acc = [0.0f64; 4];
     let v4 = v.chunks_exact(4);
     let tail = v4.remainder().iter().fold(0.0f64, |m, &x| m.max(x.abs()));
@@ -115,8 +258,7 @@ pub(crate) fn max_abs(v: &[f64]) -> f64 {
     acc[0].max(acc[1]).max(acc[2].max(acc[3])).max(tail)
 }
 
-/// Dot product with four interleaved partial sums (vectorises; fixed order, so deterministic).
-pub(crate) fn dot4(a: &[f64], b: &[f64]) -> f64 {
+fn dot4_seq(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut acc = [0.0; 4];
@@ -131,8 +273,7 @@ pub(crate) fn dot4(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// (a . b, a . c) in one pass, each with the four partial sums of [`dot4`] (the same results).
-pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+fn dot2_seq(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     let n = a.len().min(b.len()).min(c.len());
     let (a, b, c) = (&a[..n], &b[..n], &c[..n]);
     let (mut ab, mut ac) = ([0.0; 4], [0.0; 4]);
@@ -148,8 +289,7 @@ pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     ((ab[0] + ab[1]) + (ab[2] + ab[3]) + tail_ab, (ac[0] + ac[1]) + (ac[2] + ac[3]) + tail_ac)
 }
 
-/// (sum of b over `mask`, a . b) in one pass: [`masked_sum`] and [`dot4`] with the same results.
-pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
+fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
     let n = a.len().min(b.len()).min(mask.len());
     let (a, b, mask) = (&a[..n], &b[..n], &mask[..n]);
     let (mut sum, mut ab) = ([0.0; 4], [0.0; 4]);
@@ -165,9 +305,7 @@ pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f
     ((sum[0] + sum[1]) + (sum[2] + sum[3]) + tail_sum, (ab[0] + ab[1]) + (ab[2] + ab[3]) + tail_ab)
 }
 
-/// The CG update in one pass: p += alpha d, u += alpha a, r -= alpha (a - mean) on `mask` (r stays
-/// as it is off it); returns max|r| afterwards (four running maxima, as [`max_abs`]).
-pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
+fn cg_update_seq([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
     let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(mask.len());
     let (p, u, r, d, a, mask) = (&mut p[..n], &mut u[..n], &mut r[..n], &d[..n], &a[..n], &mask[..n]);
     let step = |pi: &mut f64, ui: &mut f64, ri: &mut f64, di: f64, ai: f64, m: bool| {
@@ -191,4 +329,71 @@ pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: 
         tail = tail.max(step(pi, ui, ri, di, ai, m));
     }
     worst[0].max(worst[1]).max(worst[2].max(worst[3])).max(tail)
+}
+
+/// d = y + beta d (`beta` None: d = y + 0.0, the last solve's d ignored), in parallel blocks for
+/// long vectors (elementwise: the same result whatever the split).
+pub(crate) fn new_direction(direction: &mut [f64], preconditioned: &[f64], beta: Option<f64>) {
+    let task = |d: &mut [f64], y: &[f64]| match beta {
+        None => d.iter_mut().zip(y).for_each(|(d, &y)| *d = y + 0.0),
+        Some(beta) => d.iter_mut().zip(y).for_each(|(d, &y)| *d = y + beta * *d),
+    };
+    if parallel(direction.len()) {
+        direction.par_chunks_mut(BLOCK).zip(preconditioned.par_chunks(BLOCK)).for_each(|(d, y)| task(d, y));
+    } else {
+        task(direction, preconditioned);
+    }
+}
+
+/// The bounded CG's free set {p > 0} U {gap < 0} into `free`, the residual -gap on it (0 off it)
+/// into `residual`; returns the free set's size.
+pub(crate) fn free_set(free: &mut [bool], residual: &mut [f64], p: &[f64], gap: &[f64]) -> usize {
+    let task = |free: &mut [bool], residual: &mut [f64], p: &[f64], gap: &[f64]| {
+        let mut count = 0;
+        for (((f, r), &pi), &g) in free.iter_mut().zip(residual.iter_mut()).zip(p).zip(gap) {
+            *f = pi > 0.0 || g < 0.0;
+            count += *f as usize;
+            *r = if *f { -g } else { 0.0 };
+        }
+        count
+    };
+    if !parallel(p.len()) {
+        return task(free, residual, p, gap);
+    }
+    let blocks = free.par_chunks_mut(BLOCK).zip(residual.par_chunks_mut(BLOCK)).zip(p.par_chunks(BLOCK)).zip(gap.par_chunks(BLOCK));
+    blocks.map(|(((f, r), p), g)| task(f, r, p, g)).sum()
+}
+
+/// The bounded CG's direction: y + beta d on the free set (d taken as 0 on the `first` step), 0 off it.
+pub(crate) fn free_direction(direction: &mut [f64], preconditioned: &[f64], free: &[bool], beta: f64, first: bool) {
+    let task = |direction: &mut [f64], preconditioned: &[f64], free: &[bool]| {
+        for ((d, &y), &f) in direction.iter_mut().zip(preconditioned).zip(free) {
+            let previous = if first { 0.0 } else { *d };
+            *d = if f { y + beta * previous } else { 0.0 };
+        }
+    };
+    if parallel(direction.len()) {
+        let blocks = direction.par_chunks_mut(BLOCK).zip(preconditioned.par_chunks(BLOCK)).zip(free.par_chunks(BLOCK));
+        blocks.for_each(|((d, y), f)| task(d, y, f));
+    } else {
+        task(direction, preconditioned, free);
+    }
+}
+
+/// p += alpha d and u += alpha C d; returns how many pressures turned negative.
+pub(crate) fn step_and_count_negative(p: &mut [f64], u: &mut [f64], d: &[f64], applied: &[f64], alpha: f64) -> usize {
+    let task = |p: &mut [f64], u: &mut [f64], d: &[f64], a: &[f64]| {
+        let mut negative = 0usize;
+        for ((pi, ui), (&d, &a)) in p.iter_mut().zip(u.iter_mut()).zip(d.iter().zip(a)) {
+            *pi += alpha * d;
+            *ui += alpha * a;
+            negative += (*pi < 0.0) as usize;
+        }
+        negative
+    };
+    if !parallel(p.len()) {
+        return task(p, u, d, applied);
+    }
+    let blocks = p.par_chunks_mut(BLOCK).zip(u.par_chunks_mut(BLOCK)).zip(d.par_chunks(BLOCK)).zip(applied.par_chunks(BLOCK));
+    blocks.map(|(((p, u), d), a)| task(p, u, d, a)).sum()
 }
