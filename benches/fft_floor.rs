@@ -196,6 +196,13 @@ fn self_affine_case(log2_n: u32, repeats: usize) -> Measured {
 }
 
 fn main() {
+    // One thread: the solver's vector passes go parallel above 2^17 points (`solver::reduce`), and
+    // this thread's CPU clock would not see work done on others.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one thread");
+    one.install(run);
+}
+
+fn run() {
     let args: Vec<String> = std::env::args().collect();
     let large = args.iter().any(|a| a == "--large");
     // `--only road` / `--only 16` / `--only 20` runs one case (for profiling).
