@@ -65,24 +65,25 @@ pub(crate) fn dot4(a: &[f64], b: &[f64]) -> f64 {
     in_order(a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).map(|(a, b)| dot4_seq(a, b)).collect())
 }
 
-/// (a . b, a . c) in one pass, each with the four partial sums of [`dot4`] (the same results).
-pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+/// Two sums over (a, b, c) by `pass`: at once below [`PARALLEL_MIN`], else per block, the block
+/// results added in block order.
+fn two_sums<C: Sync>(a: &[f64], b: &[f64], c: &[C], pass: impl Fn(&[f64], &[f64], &[C]) -> (f64, f64) + Sync) -> (f64, f64) {
     let n = a.len().min(b.len()).min(c.len());
     if !parallel(n) {
-        return dot2_seq(a, b, c);
+        return pass(a, b, c);
     }
     let blocks = a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).zip(c[..n].par_chunks(BLOCK));
-    pairs_in_order(blocks.map(|((a, b), c)| dot2_seq(a, b, c)).collect())
+    pairs_in_order(blocks.map(|((a, b), c)| pass(a, b, c)).collect())
+}
+
+/// (a . b, a . c) in one pass, each with the four partial sums of [`dot4`] (the same results).
+pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+    two_sums(a, b, c, dot2_seq)
 }
 
 /// (sum of b over `mask`, a . b) in one pass: [`masked_sum`] and [`dot4`] with the same results.
 pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
-    let n = a.len().min(b.len()).min(mask.len());
-    if !parallel(n) {
-        return masked_sum_and_dot_seq(a, b, mask);
-    }
-    let blocks = a[..n].par_chunks(BLOCK).zip(b[..n].par_chunks(BLOCK)).zip(mask[..n].par_chunks(BLOCK));
-    pairs_in_order(blocks.map(|((a, b), m)| masked_sum_and_dot_seq(a, b, m)).collect())
+    two_sums(a, b, mask, masked_sum_and_dot_seq)
 }
 
 /// The CG update in one pass: p += alpha d, u += alpha a, r -= alpha (a - mean) on `mask` (r stays
