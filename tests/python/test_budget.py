@@ -214,3 +214,26 @@ def test_one_pilot_for_a_group_of_runs() -> None:
     with pytest.raises(roadtex.InvalidInputError):
         roadtex.convergence_study([runs[0], roadtex.synthetic_pavement("dense_asphalt", 0.3, 0.1e-3)],
                                   youngs_modulus=2.5e6, mean_pressure=2e5, segment_length=0.1)
+
+
+def test_the_search_bisects_the_candidate_intervals(asphalt: roadtex.Profile) -> None:
+    # The pilot bisects the candidate dx: it solves about log2 of them, and the interval it keeps
+    # is within the budget while the next coarser candidate was solved and was not.
+    budget = 0.3
+    choice = roadtex.choose_setting(asphalt, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=0.1,
+                                    budget_db=budget)
+    study = choice.study.filter(pl.col("in_budget"))
+    ladder = sorted(roadtex.convergence_study(asphalt, youngs_modulus=MODULI, mean_pressure=2e5, segment_length=0.1,
+                                              tol_candidates=[1e-4], n_segments=1, include_reference_error=False)
+                    ["dx"].unique().to_list(), reverse=True)   # every candidate dx, coarse first
+    evaluated = sorted(study["dx"].unique().to_list(), reverse=True)
+    assert len(ladder) >= 8
+    assert len(evaluated) <= int(np.ceil(np.log2(len(ladder)))) + 2 < len(ladder)
+    worst = study.group_by("dx", "tol").agg(pl.col("level_error_db").max())  # per setting, over bands
+    best = worst.group_by("dx").agg(pl.col("level_error_db").min())          # best tol per dx
+    best_per_dx = dict(zip(best["dx"].to_list(), best["level_error_db"].to_list()))
+    assert choice.within_budget and best_per_dx[choice.dx] <= budget
+    position = min(range(len(ladder)), key=lambda i: abs(ladder[i] - choice.dx))
+    if position > 0:  # the next coarser candidate was solved and missed the budget at every tol tried
+        coarser = min(best_per_dx, key=lambda dx: abs(dx - ladder[position - 1]))
+        assert coarser == pytest.approx(ladder[position - 1]) and best_per_dx[coarser] > budget
