@@ -93,6 +93,12 @@ pub fn solve_many(
             })
             .collect::<Result<Vec<_>>>()
     };
+    in_pool(threads, run)
+}
+
+/// Runs `run` on rayon's global pool (`threads` None) or on a pool of `threads` threads: the
+/// batch functions' `threads` argument.
+pub(crate) fn in_pool<T: Send>(threads: Option<usize>, run: impl FnOnce() -> Result<T> + Send) -> Result<T> {
     match threads {
         None => run(),
         Some(0) => invalid("threads must be at least 1"),

@@ -302,13 +302,5 @@ pub fn solve_surfaces(
             })
             .collect()
     };
-    match threads {
-        None => run(),
-        Some(0) => invalid("threads must be at least 1"),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| ContactError::InvalidInput(format!("cannot start {t} threads: {e}")))?
-            .install(run),
-    }
+    crate::batch::in_pool(threads, run)
 }
