@@ -80,14 +80,12 @@ STUDY_SCHEMA = {
 class Pilot:
     """The reference side of a study: pilot segments, reference levels, the reference's own error."""
 
-    profiles: list[Profile]
-    cleaned: list[Profile]           # ``profiles`` cleaned once (:func:`cleaned_profiles`)
+    cleaned: list[Profile]           # the runs, cleaned once (:func:`cleaned_profiles`)
     moduli: np.ndarray
     mean_pressure: float
     poisson: float
     segment_length: float
     band_kind: BandKind
-    spike_alpha: float | None
     max_iterations: int
     threads: int | None
     dx: float
@@ -204,8 +202,8 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     bands = bands.with_columns(pl.Series("in_budget", in_budget(bands["band"].to_numpy(), dx, length, kind)))
     columns, _ = band_columns(texture.bands, bands["band"].to_numpy())
     chosen = np.unique(np.round(np.linspace(0, len(starts) - 1, min(count, len(starts)))).astype(np.int64))
-    pilot = Pilot(profiles, cleaned, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
-                  length, kind, spike_alpha, whole_number(max_iterations, "max_iterations", 1), threads, dx,
+    pilot = Pilot(cleaned, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
+                  length, kind, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0)
     pilot.levels, _, seconds, work = solve_levels(pilot, heights[chosen], dx, REFERENCE_TOL)
