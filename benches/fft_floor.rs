@@ -17,7 +17,9 @@
 //!   P = 0.0105, cutoff 0.25, seed 1, tol 1e-8, cold start. Targets: 150 and 600 pairs.
 //!
 //! Run: `cargo bench --bench fft_floor` (add `-- --large` for 2^20, about a minute or more;
-//! `-- --only road|16|20` for one case, e.g. under `perf record`).
+//! `-- --only road|16|20` for one case, with `--profile` to leave out the FFT-pair timings, e.g.
+//! under `perf record`; `--baseline` runs the solver's own loops in their baseline (SSE2) copies,
+//! not the AVX2 ones chosen at run time).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -123,13 +125,15 @@ struct Measured {
 /// under the same machine load.
 fn measure(name: &str, n: usize, solves: usize, repeats: usize, mut run: impl FnMut() -> (Vec<ContactSolution>, u64)) -> Measured {
     let timer = PairTimer::new(n);
+    // `--profile`: the solves only, no FFT-pair timings between them (for `perf record`).
+    let profile = std::env::args().any(|a| a == "--profile");
     let (mut best, mut best_pair, mut ratios) = (f64::INFINITY, f64::INFINITY, Vec::new());
     let mut last = (Vec::new(), 0);
     for _ in 0..repeats {
         let (clock, start) = Clock::start();
         let (sols, pairs) = run();
         let per_solve = clock.elapsed(start) / solves as f64;
-        let pair = timer.time(5);
+        let pair = if profile { f64::NAN } else { timer.time(5) };
         ratios.push(per_solve / pair);
         best = best.min(per_solve);
         best_pair = best_pair.min(pair);
@@ -204,6 +208,9 @@ fn main() {
 
 fn run() {
     let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--baseline") {
+        roadtex::solver::set_wide_vectors(false);
+    }
     let large = args.iter().any(|a| a == "--large");
     // `--only road` / `--only 16` / `--only 20` runs one case (for profiling).
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
@@ -218,6 +225,7 @@ fn run() {
     if large || only == Some("20") {
         cases.push(self_affine_case(20, 2));
     }
+    println!("solver vector loops: {}", if roadtex::solver::wide_vectors() { "AVX2 (chosen at run time)" } else { "baseline x86-64" });
     println!(
         "{:<24} {:>8} {:>7} {:>10} {:>12} {:>10} {:>12} {:>10} {:>13} {:>9}",
         "case", "N", "solves", "iterations", "time/solve", "FFT pair", "pairs/solve", "best/best", "pairs applied", "residual"

@@ -35,8 +35,8 @@ const MAX_SWEEPS: usize = 40;
 /// Inner solves of early sweeps, while the set is still changing, stop after reducing the
 /// residual by this factor: measured best among 0.3, 0.1, 0.02 and 0.005 for time to solution.
 const ROUGH_REDUCTION: f64 = 0.1;
-/// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 4 ns a pair: up to
-/// some 44,700 runs). Beyond, only the largest islands are deflated, and the sweeps then need many
+/// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 1.3 ns a pair at
+/// 2^20, 4 ns before the tiled sums of [`PairSums`]: up to some 44,700 runs). Beyond, only the largest islands are deflated, and the sweeps then need many
 /// more iterations: on a self-affine profile at N = 2^20 (some 30,000 runs once the set settles)
 /// 142-154 iterations in 63-75 s within this budget, 3,072 iterations in 279 s when only 8,000
 /// runs were assembled, over 300 s with 4,000 (the earlier budget).

@@ -13,13 +13,16 @@
 pub mod cg;
 mod deflation;
 pub mod direct;
+mod factor;
 mod reduce;
+mod wide;
 
 use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance};
 use crate::error::{invalid, Result};
 use crate::kernel::CirculantScratch;
 use crate::kernel::KernelKind;
 use deflation::PairSums;
+pub use wide::{set_wide_vectors, wide_vectors};
 
 /// Fewest elements a profile may have: below this the discrete model says nothing useful.
 pub const MIN_ELEMENTS: usize = 8;
@@ -112,6 +115,7 @@ impl ContactSolution {
     }
 }
 
+wide::wide_fn! {
 /// Convergence measure shared by all solvers, dimensionless:
 ///
 ///   residual = max( max_{p > 0} |s - z|,  max_{p = 0} max(0, z - s) ) / height_scale
@@ -132,6 +136,7 @@ pub fn residual(pressure: &[f64], gap: &[f64], height_scale: f64) -> f64 {
         }
     }
     worst[0].max(worst[1]).max(worst[2].max(worst[3])).max(tail) / height_scale
+}
 }
 
 /// The height scale that makes [`residual`] dimensionless (m).

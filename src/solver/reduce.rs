@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use super::residual;
+use super::wide::wide_fn;
 
 /// Vectors at least this long are processed in parallel blocks.
 pub(crate) const PARALLEL_MIN: usize = 1 << 17;
@@ -102,10 +103,16 @@ pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: 
 /// v *= factor, elementwise (in parallel blocks for long vectors).
 pub(crate) fn scale(v: &mut [f64], factor: f64) {
     if !parallel(v.len()) {
-        v.iter_mut().for_each(|x| *x *= factor);
+        scale_seq(v, factor);
         return;
     }
-    v.par_chunks_mut(BLOCK).for_each(|v| v.iter_mut().for_each(|x| *x *= factor));
+    v.par_chunks_mut(BLOCK).for_each(|v| scale_seq(v, factor));
+}
+
+wide_fn! {
+fn scale_seq(v: &mut [f64], factor: f64) {
+    v.iter_mut().for_each(|x| *x *= factor);
+}
 }
 
 /// The bounded CG's gap for displacement `u` = C p (the approach that makes it zero-mean where
@@ -137,6 +144,7 @@ pub(crate) fn bounded_gap(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64], scal
     worst.into_iter().fold(0.0, f64::max) / scale
 }
 
+wide_fn! {
 /// gap = u - z, and (the sum of the gap where p > 0, the number of such points).
 fn open_gap_seq(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64]) -> (f64, usize) {
     for ((g, &ui), &zi) in gap.iter_mut().zip(u).zip(z) {
@@ -155,21 +163,25 @@ fn open_gap_seq(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64]) -> (f64, usize
     }
     ((acc[0] + acc[1]) + (acc[2] + acc[3]) + tail, count)
 }
+}
 
 /// v -= mean on `mask` (in parallel blocks for long vectors).
 fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
-    let task = |v: &mut [f64], mask: &[bool]| {
-        for (x, &m) in v.iter_mut().zip(mask) {
-            if m {
-                *x -= mean;
-            }
-        }
-    };
     if parallel(v.len()) {
-        v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).for_each(|(v, m)| task(v, m));
+        v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).for_each(|(v, m)| subtract_on_mask_seq(v, m, mean));
     } else {
-        task(v, mask);
+        subtract_on_mask_seq(v, mask, mean);
     }
+}
+
+wide_fn! {
+fn subtract_on_mask_seq(v: &mut [f64], mask: &[bool], mean: f64) {
+    for (x, &m) in v.iter_mut().zip(mask) {
+        if m {
+            *x -= mean;
+        }
+    }
+}
 }
 
 pub(crate) fn project_zero_sum(v: &mut [f64], mask: &[bool], count: usize) {
@@ -195,6 +207,7 @@ pub(crate) fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
     subtract_on_mask(v, mask, sum / count as f64);
 }
 
+wide_fn! {
 /// v zero off `mask`; returns the sum of v (over the mask).
 fn mask_and_sum_seq(v: &mut [f64], mask: &[bool]) -> f64 {
     let mut acc = [0.0; 4];
@@ -216,7 +229,9 @@ fn mask_and_sum_seq(v: &mut [f64], mask: &[bool]) -> f64 {
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
+}
 
+wide_fn! {
 fn masked_sum_seq(v: &[f64], mask: &[bool]) -> f64 {
     let n = v.len().min(mask.len());
     let (v, mask) = (&v[..n], &mask[..n]);
@@ -230,7 +245,9 @@ fn masked_sum_seq(v: &[f64], mask: &[bool]) -> f64 {
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
+}
 
+wide_fn! {
 fn sum4_seq(v: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let v4 = v.chunks_exact(4);
@@ -242,11 +259,13 @@ fn sum4_seq(v: &[f64]) -> f64 {
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
+}
 
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     dot4(a, b)
 }
 
+wide_fn! {
 fn max_abs_seq(v: &[f64]) -> f64 {
     let mut acc = [0.0f64; 4];
     let v4 = v.chunks_exact(4);
@@ -258,7 +277,9 @@ fn max_abs_seq(v: &[f64]) -> f64 {
     }
     acc[0].max(acc[1]).max(acc[2].max(acc[3])).max(tail)
 }
+}
 
+wide_fn! {
 fn dot4_seq(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
@@ -273,7 +294,9 @@ fn dot4_seq(a: &[f64], b: &[f64]) -> f64 {
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
+}
 
+wide_fn! {
 fn dot2_seq(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     let n = a.len().min(b.len()).min(c.len());
     let (a, b, c) = (&a[..n], &b[..n], &c[..n]);
@@ -289,7 +312,9 @@ fn dot2_seq(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     }
     ((ab[0] + ab[1]) + (ab[2] + ab[3]) + tail_ab, (ac[0] + ac[1]) + (ac[2] + ac[3]) + tail_ac)
 }
+}
 
+wide_fn! {
 fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
     let n = a.len().min(b.len()).min(mask.len());
     let (a, b, mask) = (&a[..n], &b[..n], &mask[..n]);
@@ -305,8 +330,11 @@ fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
     }
     ((sum[0] + sum[1]) + (sum[2] + sum[3]) + tail_sum, (ab[0] + ab[1]) + (ab[2] + ab[3]) + tail_ab)
 }
+}
 
-fn cg_update_seq([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
+wide_fn! {
+fn cg_update_seq(pur: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
+    let [p, u, r] = pur;
     let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(mask.len());
     let (p, u, r, d, a, mask) = (&mut p[..n], &mut u[..n], &mut r[..n], &d[..n], &a[..n], &mask[..n]);
     let step = |pi: &mut f64, ui: &mut f64, ri: &mut f64, di: f64, ai: f64, m: bool| {
@@ -331,19 +359,25 @@ fn cg_update_seq([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool]
     }
     worst[0].max(worst[1]).max(worst[2].max(worst[3])).max(tail)
 }
+}
 
 /// d = y + beta d (`beta` None: d = y + 0.0, the last solve's d ignored), in parallel blocks for
 /// long vectors (elementwise: the same result whatever the split).
 pub(crate) fn new_direction(direction: &mut [f64], preconditioned: &[f64], beta: Option<f64>) {
-    let task = |d: &mut [f64], y: &[f64]| match beta {
+    if parallel(direction.len()) {
+        direction.par_chunks_mut(BLOCK).zip(preconditioned.par_chunks(BLOCK)).for_each(|(d, y)| new_direction_seq(d, y, beta));
+    } else {
+        new_direction_seq(direction, preconditioned, beta);
+    }
+}
+
+wide_fn! {
+fn new_direction_seq(d: &mut [f64], y: &[f64], beta: Option<f64>) {
+    match beta {
         None => d.iter_mut().zip(y).for_each(|(d, &y)| *d = y + 0.0),
         Some(beta) => d.iter_mut().zip(y).for_each(|(d, &y)| *d = y + beta * *d),
-    };
-    if parallel(direction.len()) {
-        direction.par_chunks_mut(BLOCK).zip(preconditioned.par_chunks(BLOCK)).for_each(|(d, y)| task(d, y));
-    } else {
-        task(direction, preconditioned);
     }
+}
 }
 
 /// The bounded CG's free set {p > 0} U {gap < 0} into `free`, the residual -gap on it (0 off it)
