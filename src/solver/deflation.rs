@@ -57,32 +57,42 @@ impl PairSums {
         self.second[(k + self.n as isize - 1) as usize]
     }
 
-    /// Sum of c(i - l) over i in the run `r` and l in the runs `others` (all inside [0, N]).
+    /// The runs as the hot loop reads them: (N - start, N - end) (see [`tile_sums`]).
+    fn mirrored(&self, runs: &[(usize, usize)]) -> Vec<(usize, usize)> {
+        runs.iter().map(|&(c, d)| (self.n - c, self.n - d)).collect()
+    }
+
+    /// Sum of c(i - l) over i in the run `r` and l in the runs whose [`PairSums::mirrored`] form is
+    /// `others` (all inside [0, N]).
     fn sum_over(&self, run: (usize, usize), others: &[(usize, usize)]) -> f64 {
         let mut out = [0.0];
         tile_sums(&self.second, self.n, &[run], others, &[0, others.len()], &mut out);
         out[0]
     }
 
-    /// The sums of c(i - l) over i in each run of `tile` and l in each group of `runs`: group g
-    /// holds runs[bounds[g]..bounds[g + 1]]; out (resized) holds the sum for (group g, tile run j)
-    /// at g * tile.len() + j, added over the group's runs in order (as [`PairSums::sum_over`]).
-    fn tile_sums(&self, tile: &[(usize, usize)], runs: &[(usize, usize)], bounds: &[usize], out: &mut Vec<f64>) {
+    /// The sums of c(i - l) over i in each run of `tile` and l in each group of runs, given
+    /// [`PairSums::mirrored`]: group g holds mirrored[bounds[g]..bounds[g + 1]]; out (resized)
+    /// holds the sum for (group g, tile run j) at g * tile.len() + j, added over the group's runs
+    /// in order (as [`PairSums::sum_over`]).
+    fn tile_sums(&self, tile: &[(usize, usize)], mirrored: &[(usize, usize)], bounds: &[usize], out: &mut Vec<f64>) {
         out.resize(tile.len() * (bounds.len() - 1), 0.0);
-        tile_sums(&self.second, self.n, tile, runs, bounds, out);
+        tile_sums(&self.second, self.n, tile, mirrored, bounds, out);
     }
 
-    /// Entry (a, a) of the group matrix, for group a holding `runs_a`: the pair (j, j) once, the
-    /// pairs (j, k > j) twice.
-    fn diagonal_entry(&self, runs_a: &[(usize, usize)]) -> f64 {
-        (0..runs_a.len()).map(|j| self.sum_over(runs_a[j], &runs_a[j..j + 1]) + 2.0 * self.sum_over(runs_a[j], &runs_a[j + 1..])).sum()
+    /// Entry (a, a) of the group matrix, for group a holding `runs_a` (`mirrored_a` in
+    /// [`PairSums::mirrored`] form): the pair (j, j) once, the pairs (j, k > j) twice.
+    fn diagonal_entry(&self, runs_a: &[(usize, usize)], mirrored_a: &[(usize, usize)]) -> f64 {
+        (0..runs_a.len())
+            .map(|j| self.sum_over(runs_a[j], &mirrored_a[j..j + 1]) + 2.0 * self.sum_over(runs_a[j], &mirrored_a[j + 1..]))
+            .sum()
     }
 
     /// Row `a` of the group matrix, entries b in `range`, into `g` (row-major, groups x groups)
-    /// and its mirror: group a holds runs[bounds[a]..bounds[a + 1]]; `out` is scratch.
+    /// and its mirror: group a holds runs[bounds[a]..bounds[a + 1]], `mirrored` is
+    /// [`PairSums::mirrored`] of `runs`; `out` is scratch.
     fn group_row(
         &self,
-        runs: &[(usize, usize)],
+        (runs, mirrored): Runs<'_>,
         bounds: &[usize],
         a: usize,
         range: std::ops::Range<usize>,
@@ -91,7 +101,7 @@ impl PairSums {
     ) {
         let groups = bounds.len() - 1;
         let tile = &runs[bounds[a]..bounds[a + 1]];
-        self.tile_sums(tile, runs, &bounds[range.start..=range.end], out);
+        self.tile_sums(tile, mirrored, &bounds[range.start..=range.end], out);
         for (b, sums) in range.zip(out.chunks_exact(tile.len())) {
             // The tile's runs added in order (as `Iterator::sum` does).
             let value: f64 = sums.iter().sum();
@@ -114,10 +124,12 @@ impl PairSums {
         self.check_runs(runs);
         let mut g = vec![0.0; groups * groups];
         let mut out = Vec::new();
+        let mirrored = self.mirrored(runs);
         for ga in 0..groups {
-            g[ga * groups + ga] = self.diagonal_entry(&runs[bounds[ga]..bounds[ga + 1]]);
+            let members = bounds[ga]..bounds[ga + 1];
+            g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
             if ga + 1 < groups {
-                self.group_row(runs, bounds, ga, ga + 1..groups, &mut g, &mut out);
+                self.group_row((runs, &mirrored), bounds, ga, ga + 1..groups, &mut g, &mut out);
             }
         }
         g
@@ -131,38 +143,46 @@ impl PairSums {
     }
 }
 
+/// Runs [start, end) and their [`PairSums::mirrored`] form.
+type Runs<'a> = (&'a [(usize, usize)], &'a [(usize, usize)]);
+
 wide_fn! {
 /// out[g * tile.len() + j] = the block sums of `tile[j]` against the runs of group g of `others`
-/// (runs bounds[g]..bounds[g + 1]), added in order from -0.0 (as `Iterator::sum`); `h` holds the
-/// second prefix sums of a kernel of size `n`.
+/// (runs bounds[g]..bounds[g + 1], given as (N - start, N - end)), added in order from -0.0 (as
+/// `Iterator::sum`); `h` holds the second prefix sums of a kernel of size `n`.
 ///
 /// The hot loop of the coarse space. The whole tile (a group's runs, neighbours on the profile)
 /// meets each run of `others` at once: the entries of `h` it reads for one run lie in a window of
 /// about the tile's span, which the next run shifts by one run only. So `h` (16 MiB at N = 2^20)
-/// streams through the cache once per tile instead of once per run (15 % of a 2^20 solve), and
-/// the tile's sums are independent chains, four at a time in registers.
+/// streams through the cache once per tile instead of once per run, and the tile's sums are
+/// independent chains, four at a time in registers. The block of the runs [a, b) and [c, d) is
+/// H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), and H(k) sits at k + N - 1: at
+/// b + (N - c) and so on, one load each from the tile run's own base (no index arithmetic).
 fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usize)], bounds: &[usize], out: &mut [f64]) {
     let t = tile.len();
     assert!(h.len() > 2 * n && out.len() == t * (bounds.len() - 1) && bounds[bounds.len() - 1] <= others.len());
-    debug_assert!(tile.iter().chain(others).all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
+    // Every index below is b + (N - c) etc. with a, b, c, d in [0, N]: at most 2N.
+    assert!(tile.iter().all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
+    debug_assert!(others.iter().all(|&(c, d)| c >= d && c <= n), "runs must lie in [0, N]");
     let whole = t / LANES * LANES;
     for (group, sums) in bounds.windows(2).zip(out.chunks_exact_mut(t)) {
         let group = &others[group[0]..group[1]];
         for (o, lanes) in sums[..whole].chunks_exact_mut(LANES).zip(tile.chunks_exact(LANES)) {
             let mut acc = [-0.0; LANES];
-            let hi = [lanes[0].1 + n, lanes[1].1 + n, lanes[2].1 + n, lanes[3].1 + n];
-            let lo = [lanes[0].0 + n, lanes[1].0 + n, lanes[2].0 + n, lanes[3].0 + n];
+            let ends = [&h[lanes[0].1..], &h[lanes[1].1..], &h[lanes[2].1..], &h[lanes[3].1..]];
+            let starts = [&h[lanes[0].0..], &h[lanes[1].0..], &h[lanes[2].0..], &h[lanes[3].0..]];
             for &(c, d) in group {
                 for k in 0..LANES {
-                    acc[k] += block(h, hi[k], lo[k], c, d);
+                    acc[k] += block(ends[k], starts[k], c, d);
                 }
             }
             o.copy_from_slice(&acc);
         }
         for (o, &(a, b)) in sums[whole..].iter_mut().zip(&tile[whole..]) {
+            let (end, start) = (&h[b..], &h[a..]);
             let mut acc = -0.0;
             for &(c, d) in group {
-                acc += block(h, b + n, a + n, c, d);
+                acc += block(end, start, c, d);
             }
             *o = acc;
         }
@@ -172,15 +192,14 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
 
 const LANES: usize = 4;
 
-/// The block sum of the run [lo - N, hi - N) = [a, b) against the run [c, d), that is
-/// H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), where H(k) sits at k + N - 1:
-/// with the run ends shifted by N (`hi`, `lo`) every index is a plain sum.
+/// (H at end + c - H at start + c) - (H at end + d - H at start + d), with `end`, `start` the
+/// second prefix sums from a run's end and start on, and c, d a mirrored run (N - its ends).
 #[inline(always)]
-fn block(h: &[f64], hi: usize, lo: usize, c: usize, d: usize) -> f64 {
-    // SAFETY: 0 <= a <= b <= N and 0 <= c <= d <= N (every caller asserts it through
-    // PairSums::check_runs), so every index lies in [0, 2N] and `h` has more than 2N entries.
-    // Unchecked because this is the coarse space's hot loop.
-    unsafe { (h.get_unchecked(hi - c) - h.get_unchecked(lo - c)) - (h.get_unchecked(hi - d) - h.get_unchecked(lo - d)) }
+fn block(end: &[f64], start: &[f64], c: usize, d: usize) -> f64 {
+    // SAFETY: `end` and `start` begin at most N into `h` (2N + 1 entries: at least N + 1 left),
+    // and c, d <= N (PairSums::mirrored of runs inside [0, N], which every caller asserts through
+    // PairSums::check_runs). Unchecked because this is the coarse space's hot loop.
+    unsafe { (end.get_unchecked(c) - start.get_unchecked(c)) - (end.get_unchecked(d) - start.get_unchecked(d)) }
 }
 
 /// Maximal runs [start, end) of `true` in `mask` (no wrap-around: an island that crosses the
@@ -250,20 +269,21 @@ impl GroupCache {
         let changed: Vec<bool> = (0..groups).map(|g| group(g) != &self.runs[self.bounds[g]..self.bounds[g + 1]]).collect();
         let mut g = std::mem::take(&mut self.g);
         let mut out = Vec::new();
+        let mirrored = pair_sums.mirrored(runs);
         for a in (0..groups).filter(|&a| changed[a]) {
-            g[a * groups + a] = pair_sums.diagonal_entry(group(a));
+            g[a * groups + a] = pair_sums.diagonal_entry(group(a), &mirrored[bounds[a]..bounds[a + 1]]);
             // Row a against every group but the changed ones before it (their rows did it): the
             // unchanged groups before a in maximal ranges, then all groups after it.
             let mut b = 0;
             while b < a {
                 let end = (b..a).find(|&e| changed[e]).unwrap_or(a);
                 if end > b {
-                    pair_sums.group_row(runs, bounds, a, b..end, &mut g, &mut out);
+                    pair_sums.group_row((runs, &mirrored), bounds, a, b..end, &mut g, &mut out);
                 }
                 b = end + 1;
             }
             if a + 1 < groups {
-                pair_sums.group_row(runs, bounds, a, a + 1..groups, &mut g, &mut out);
+                pair_sums.group_row((runs, &mirrored), bounds, a, a + 1..groups, &mut g, &mut out);
             }
         }
         g
