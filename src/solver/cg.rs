@@ -35,12 +35,14 @@ const MAX_SWEEPS: usize = 40;
 /// Inner solves of early sweeps, while the set is still changing, stop after reducing the
 /// residual by this factor: measured best among 0.3, 0.1, 0.02 and 0.005 for time to solution.
 const ROUGH_REDUCTION: f64 = 0.1;
-/// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 1.3 ns a pair at
-/// 2^20, 4 ns before the tiled sums of [`PairSums`]: up to some 44,700 runs). Beyond, only the largest islands are deflated, and the sweeps then need many
-/// more iterations: on a self-affine profile at N = 2^20 (some 30,000 runs once the set settles)
-/// 142-154 iterations in 63-75 s within this budget, 3,072 iterations in 279 s when only 8,000
-/// runs were assembled, over 300 s with 4,000 (the earlier budget).
-const MAX_RUN_PAIRS: usize = 1_000_000_000;
+/// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 1 ns a pair at
+/// 2^20 with the tiled sums of [`PairSums`], 4 ns before them: up to some 63,000 runs). Beyond,
+/// only the largest islands are deflated, and the sweeps then need many more iterations: on a
+/// self-affine profile at N = 2^20 (some 30,000 runs once the set settles, up to 50,000 in the
+/// first sweeps) 132 iterations in 15.1 s with this budget, 148 in 16.5 s when it was 10^9 pairs
+/// (the first sweeps' 45,000 to 50,000 runs cut to the largest 2,048), 3,072 iterations in 279 s
+/// when only 8,000 runs were assembled, over 300 s with 4,000.
+const MAX_RUN_PAIRS: usize = 2_000_000_000;
 
 /// Coarse-space dimension (runs of contact, grouped beyond it) for a set of `runs` runs at size N.
 ///
