@@ -164,6 +164,16 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
     // Every index below is b + (N - c) etc. with a, b, c, d in [0, N]: at most 2N.
     assert!(tile.iter().all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
     debug_assert!(others.iter().all(|&(c, d)| c >= d && c <= n), "runs must lie in [0, N]");
+    let groups = bounds.len() - 1;
+    if t == 1 && bounds[groups] - bounds[0] == groups {
+        // One run against single runs (a coarse space of ungrouped runs, all N = 1,000 segments):
+        // one block each, in one pass.
+        let (end, start) = (&h[tile[0].1..], &h[tile[0].0..]);
+        for (o, &(c, d)) in out.iter_mut().zip(&others[bounds[0]..bounds[groups]]) {
+            *o = -0.0 + block(end, start, c, d);
+        }
+        return;
+    }
     let whole = t / LANES * LANES;
     for (group, sums) in bounds.windows(2).zip(out.chunks_exact_mut(t)) {
         let group = &others[group[0]..group[1]];
