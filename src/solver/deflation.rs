@@ -161,8 +161,11 @@ wide_fn! {
 fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usize)], bounds: &[usize], out: &mut [f64]) {
     let t = tile.len();
     assert!(h.len() > 2 * n && out.len() == t * (bounds.len() - 1) && bounds[bounds.len() - 1] <= others.len());
-    // Every index below is b + (N - c) etc. with a, b, c, d in [0, N]: at most 2N.
     assert!(tile.iter().all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
+    // SAFETY (every `block` below): its slices begin at a tile run's start or end, at most N into
+    // `h` (more than 2N entries: at least N + 1 left, asserted above), and c, d <= N, as
+    // `others` holds PairSums::mirrored of runs inside [0, N] (every caller asserts it through
+    // PairSums::check_runs).
     debug_assert!(others.iter().all(|&(c, d)| c >= d && c <= n), "runs must lie in [0, N]");
     let groups = bounds.len() - 1;
     if t == 1 && bounds[groups] - bounds[0] == groups {
@@ -170,7 +173,7 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
         // one block each, in one pass.
         let (end, start) = (&h[tile[0].1..], &h[tile[0].0..]);
         for (o, &(c, d)) in out.iter_mut().zip(&others[bounds[0]..bounds[groups]]) {
-            *o = -0.0 + block(end, start, c, d);
+            *o = -0.0 + unsafe { block(end, start, c, d) };
         }
         return;
     }
@@ -183,7 +186,7 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
             let starts = [&h[lanes[0].0..], &h[lanes[1].0..], &h[lanes[2].0..], &h[lanes[3].0..]];
             for &(c, d) in group {
                 for k in 0..LANES {
-                    acc[k] += block(ends[k], starts[k], c, d);
+                    acc[k] += unsafe { block(ends[k], starts[k], c, d) };
                 }
             }
             o.copy_from_slice(&acc);
@@ -192,7 +195,7 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
             let (end, start) = (&h[b..], &h[a..]);
             let mut acc = -0.0;
             for &(c, d) in group {
-                acc += block(end, start, c, d);
+                acc += unsafe { block(end, start, c, d) };
             }
             *o = acc;
         }
@@ -204,12 +207,13 @@ const LANES: usize = 4;
 
 /// (H at end + c - H at start + c) - (H at end + d - H at start + d), with `end`, `start` the
 /// second prefix sums from a run's end and start on, and c, d a mirrored run (N - its ends).
+/// Unchecked because this is the coarse space's hot loop.
+///
+/// # Safety
+/// c and d must be less than both slices' lengths.
 #[inline(always)]
-fn block(end: &[f64], start: &[f64], c: usize, d: usize) -> f64 {
-    // SAFETY: `end` and `start` begin at most N into `h` (2N + 1 entries: at least N + 1 left),
-    // and c, d <= N (PairSums::mirrored of runs inside [0, N], which every caller asserts through
-    // PairSums::check_runs). Unchecked because this is the coarse space's hot loop.
-    unsafe { (end.get_unchecked(c) - start.get_unchecked(c)) - (end.get_unchecked(d) - start.get_unchecked(d)) }
+unsafe fn block(end: &[f64], start: &[f64], c: usize, d: usize) -> f64 {
+    (end.get_unchecked(c) - start.get_unchecked(c)) - (end.get_unchecked(d) - start.get_unchecked(d))
 }
 
 /// Maximal runs [start, end) of `true` in `mask` (no wrap-around: an island that crosses the
