@@ -99,9 +99,27 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
         if synonym in bases:
             return bases.index(synonym)
     if required:
-        hint = ", or give dx= (m) for evenly spaced heights" if what == "distance" else ""
-        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column={hint}")
+        hint = ", or give dx (m) for evenly spaced heights" if what == "distance" else ""
+        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column (a read_profile "
+                                 f"option or manifest column){hint}")
     return None
+
+
+#: Where a user gives a reader option: in Python, in the bulk job's manifest, on the command line.
+WHERE_OPTIONS = "read_profile option, manifest column or roadtex process --{flag}"
+
+
+def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]]) -> None:
+    """Refuses, naming every one at once, the columns (``what -> (index, unit given)``) whose unit
+    neither the header nor the options give: a number without its unit is never guessed."""
+    missing = [(what, names[index]) for what, (index, given) in columns.items()
+               if index is not None and given is None and split_column_name(names[index])[1] is None]
+    if missing:
+        columns_text = " and ".join(f"the {what} column {column!r}" for what, column in missing)
+        options = " and ".join(f"{what}_unit" for what, _ in missing)
+        flags = ", ".join(f"--{what}-unit" for what, _ in missing)
+        raise ProfileFormatError(f"no unit for {columns_text} (the file states none): give {options} ('m', 'mm', "
+                                 f"'um', ...) as a read_profile option, a manifest column or roadtex process {flags}")
 
 
 def column_unit(names: list[str], index: int, given: str | None, what: str) -> float:
@@ -109,7 +127,8 @@ def column_unit(names: list[str], index: int, given: str | None, what: str) -> f
         return unit_factor(given, what)
     unit = split_column_name(names[index])[1]
     if unit is None:
-        raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit= ('m', 'mm', 'um', ...)")
+        raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit ('m', 'mm', "
+                                 f"'um', ...; {WHERE_OPTIONS.format(flag=what + '-unit')})")
     return unit_factor(unit, f"the {what} column {names[index]!r}")
 
 
@@ -161,11 +180,32 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
         # BaseException, so it is named here to be reported as what it is, a bad file.
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        where = first_bad_line(data, separator, decimal_comma)
+        if where is not None:
+            index, line = where
+            message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {line[:80]!r} ({message})"
         raise ProfileFormatError(f"{name}: cannot read the numbers after line {first_line}: {message}") from None
     missing = np.column_stack([frame.get_column(c).is_null().to_numpy() for c in frame.columns]) \
         if frame.height else np.zeros((0, n_columns), dtype=bool)
     table = frame.to_numpy().astype(np.float64, copy=False).reshape(frame.height, n_columns)
     return table, missing
+
+
+def first_bad_line(data: bytes, separator: str, decimal_comma: bool) -> tuple[int, str] | None:
+    """The first line (0-based, and its text) of a table that holds a field that is not a number
+    or a drop-out: where a parse failed, for the message (slow; only on the failure path)."""
+    missing = {"", "na", "n/a", "null", "-", "nan"}
+    for index, raw in enumerate(data.split(b"\n")):
+        line = raw.decode("utf-8", "replace").rstrip("\r")
+        for field in line.split(separator):
+            text = field.strip().strip('"')
+            if text.lower() in missing:
+                continue
+            try:
+                float(text.replace(",", ".") if decimal_comma else text)
+            except ValueError:
+                return index, line
+    return None
 
 
 def first_lines(data: bytes, count: int) -> tuple[list[bytes], list[int]]:
