@@ -1,0 +1,155 @@
+"""Profile files as colleagues send them (the README walk): a metadata block before the table,
+Excel's exports, blank lines, cells that are not numbers, units missing or wrong. Each is read to
+the numbers written, or refused (or warned about) naming the file and the problem."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+
+import roadtex
+from roadtex.errors import ImplausibleTextureWarning, ProfileFormatError
+from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, PLAUSIBLE_MIN_RMS
+
+N = 400
+DX_MM = 0.5
+
+
+def written(n: int = N) -> tuple[np.ndarray, np.ndarray]:
+    """Distances and heights (mm) as a colleague's file holds them: a 2 mm-amplitude texture."""
+    x = np.arange(n) * DX_MM
+    z = np.round(2.0 * np.sin(2 * np.pi * x / 7.3) + 0.7 * np.cos(2 * np.pi * x / 2.9), 3)
+    return x, z
+
+
+def table(x: np.ndarray, z: np.ndarray, separator: str = ";", comma: bool = True) -> str:
+    rows = [f"{a:.3f}{separator}{b:.3f}" for a, b in zip(x, z)]
+    return "".join((r.replace(".", ",") if comma else r) + "\n" for r in rows)
+
+
+def read_quietly(path: Path, **options: object) -> roadtex.Profile:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleTextureWarning)
+        return roadtex.read_profile(path, **options)
+
+
+def assert_written(profile: roadtex.Profile, x: np.ndarray, z: np.ndarray) -> None:
+    np.testing.assert_allclose(profile.positions, x * 1e-3, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(profile.heights, z * 1e-3, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("block", [
+    "Site: A1 km 12\nOperator: J. Smith\nDate: 2024-05-01\n\n",
+    "Site;A1 km 12\nOperator;J. Smith;\nDate;2024-05-01\n",
+    "Site\tA1 km 12\nOperator\tJ. Smith\nDate = 2024-05-01\n",
+], ids=["colon", "semicolon", "tab-and-equals"])
+def test_a_metadata_block_before_the_header_is_metadata(tmp_path: Path, block: str) -> None:
+    x, z = written()
+    path = tmp_path / "survey.csv"
+    path.write_bytes(("\ufeff" + block + "Distance (mm);Height (mm)\n" + table(x, z)).replace("\n", "\r\n").encode())
+    profile = read_quietly(path)
+    assert_written(profile, x, z)
+    assert (profile.metadata["site"], profile.metadata["operator"], profile.metadata["date"]) == \
+        ("A1 km 12", "J. Smith", "2024-05-01")
+
+
+def test_excel_sep_line_quoted_names_and_trailing_empty_rows(tmp_path: Path) -> None:
+    x, z = written()
+    path = tmp_path / "excel.csv"
+    text = 'sep=;\n"Distance (mm)";"Height (mm)"\n' + table(x, z) + ";\n;\n\n\n"
+    path.write_bytes(text.replace("\n", "\r\n").encode())
+    assert_written(read_quietly(path), x, z)
+
+
+def test_blank_lines_inside_a_table_with_distances_are_no_rows(tmp_path: Path) -> None:
+    x, z = written()
+    lines = table(x, z, ",", comma=False).splitlines(keepends=True)
+    lines[100:100] = ["\n", "\n"]
+    path = tmp_path / "gaps.csv"
+    path.write_text("distance [mm],height [mm]\n" + "".join(lines) + "\n\n")
+    assert_written(read_quietly(path), x, z)
+
+
+def test_heights_only_an_empty_line_is_a_dropout_and_trailing_lines_are_not_rows(tmp_path: Path) -> None:
+    _, z = written()
+    cells = [f"{v:.3f}" for v in z]
+    cells[50] = ""
+    path = tmp_path / "heights.txt"
+    path.write_text("height (mm)\n" + "\n".join(cells) + "\n\n\n")
+    profile = read_quietly(path, dx=DX_MM * 1e-3)
+    assert profile.heights.size == N and np.isnan(profile.heights[50])
+    keep = np.arange(N) != 50
+    np.testing.assert_allclose(profile.heights[keep], z[keep] * 1e-3, rtol=0, atol=1e-12)
+
+
+def test_a_cell_that_is_not_a_number_is_refused_naming_its_line(tmp_path: Path) -> None:
+    x, z = written()
+    lines = table(x, z, ",", comma=False).splitlines(keepends=True)
+    lines[200] = "#N/A,sensor fault\n"
+    path = tmp_path / "fault.csv"
+    path.write_text("# exported 2024-05-01\ndistance (mm),height (mm)\n" + "".join(lines))
+    # comment line 1, header line 2, data from line 3: row 200 (0-based) is line 203
+    with pytest.raises(ProfileFormatError, match=r"fault\.csv: .*line 203 is not a row of 2 numbers: '#N/A,sensor fault'"):
+        roadtex.read_profile(path)
+
+
+def test_missing_units_are_all_named_with_where_to_give_them(tmp_path: Path) -> None:
+    x, z = written()
+    path = tmp_path / "bare.csv"
+    path.write_text("distance;height\n" + table(x, z))
+    with pytest.raises(ProfileFormatError, match=r"bare\.csv: no unit for the height column 'height' and the distance "
+                       r"column 'distance'.*height_unit and distance_unit.*manifest column.*--height-unit, --distance-unit"):
+        roadtex.read_profile(path)
+    assert_written(read_quietly(path, height_unit="mm", distance_unit="mm"), x, z)
+
+
+def test_unit_mistakes_in_a_file_are_warned_about_by_the_reader(tmp_path: Path) -> None:
+    x, z = written()
+    path = tmp_path / "bare.csv"
+    path.write_text("distance;height\n" + table(x, z))
+    # heights in mm said to be micrometres: 1000 times too small for any road
+    with pytest.warns(ImplausibleTextureWarning, match=r"bare\.csv: rms height .* implausibly small.*millimetres read as micrometres"):
+        roadtex.read_profile(path, height_unit="um", distance_unit="mm")
+    # distances in mm said to be metres: a 0.5 m sampling interval
+    with pytest.warns(ImplausibleTextureWarning, match=r"bare\.csv: a sampling interval of 0\.5 m is implausibly coarse"):
+        roadtex.read_profile(path, height_unit="mm", distance_unit="m")
+
+
+def test_the_file_limits_leave_model_problems_to_the_solvers() -> None:
+    """A 1 um sinusoid on a 10 mm grid is a fine model problem for contact: no warning there (the
+    file limits are for measured road profiles only), though it is beyond both of them."""
+    x = np.arange(64) * 10e-3
+    heights = 1e-6 * np.sin(2 * np.pi * x / 0.32)
+    assert heights.std() < PLAUSIBLE_MIN_RMS and 10e-3 > PLAUSIBLE_MAX_DX
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleTextureWarning)
+        r = roadtex.contact(heights, 10e-3, youngs_modulus=2e6, mean_pressure=2e5)
+    assert r.converged
+
+
+def test_the_job_refuses_a_unit_mistake_and_processes_the_rest(tmp_path: Path) -> None:
+    survey = tmp_path / "survey"
+    survey.mkdir()
+    road = roadtex.synthetic_pavement("dense_asphalt", length=0.6, dx=0.5e-3, seed=2)
+    millimetres = table(road.positions * 1e3, road.heights * 1e3, ",", comma=False)
+    (survey / "good.csv").write_text("distance (mm),height (mm)\n" + millimetres)
+    (survey / "said_metres.csv").write_text("distance,height (mm)\n" + millimetres)
+    (survey / "said_micrometres.csv").write_text("distance (mm),height\n" + millimetres)
+    manifest = roadtex.build_manifest(survey).with_columns(
+        pl.when(pl.col("run_id") == "said_metres").then(pl.lit("m")).otherwise(None).alias("distance_unit"),
+        pl.when(pl.col("run_id") == "said_micrometres").then(pl.lit("um")).otherwise(None).alias("height_unit"))
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), error_budget_db=None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImplausibleTextureWarning)
+        roadtex.process(manifest, tmp_path / "results", options)
+    errors = pl.read_parquet(tmp_path / "results" / "errors.parquet").sort("run_id")
+    assert errors["run_id"].to_list() == ["said_metres", "said_micrometres"]
+    assert errors["stage"].to_list() == ["read", "read"]
+    assert "said_metres.csv: a sampling interval of 0.5 m is implausibly coarse" in errors["message"][0]
+    assert "said_micrometres.csv: rms height" in errors["message"][1] and "implausibly small" in errors["message"][1]
+    runs = pl.read_parquet(tmp_path / "results" / "runs.parquet")
+    assert runs["run_id"].to_list() == ["good"] and runs["dx_used"][0] == pytest.approx(0.5e-3)
