@@ -153,3 +153,20 @@ def test_the_job_refuses_a_unit_mistake_and_processes_the_rest(tmp_path: Path) -
     assert "said_micrometres.csv: rms height" in errors["message"][1] and "implausibly small" in errors["message"][1]
     runs = pl.read_parquet(tmp_path / "results" / "runs.parquet")
     assert runs["run_id"].to_list() == ["good"] and runs["dx_used"][0] == pytest.approx(0.5e-3)
+
+
+def test_the_manifest_names_the_format_each_file_was_read_as(tmp_path: Path, captif_dir: Path) -> None:
+    """runs.parquet's ``format`` is the manifest's: ``roadtex manifest`` fills it with the format read,
+    not the metadata's (a CAPTIF profile written to Parquet keeps ``format: captif`` in it)."""
+    survey = tmp_path / "survey"
+    survey.mkdir()
+    station = captif_dir / "20211011_aylesbury_dec_station_0.dat"
+    (survey / "a_station.dat").write_bytes(station.read_bytes())
+    profile = roadtex.read_profile(station)
+    roadtex.write_profile(profile, survey / "b_station.parquet")
+    x, z = written()
+    (survey / "c_colleague.csv").write_text("Distance (mm);Height (mm)\n" + table(x, z))
+    (survey / "d_junk.csv").write_bytes(bytes(range(256)) * 4)
+    manifest = roadtex.build_manifest(survey)
+    assert manifest["format"].to_list() == ["captif", "parquet", "csv", None]
+    assert roadtex.read_profile(survey / "b_station.parquet").metadata["format"] == "captif"

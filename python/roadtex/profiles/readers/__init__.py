@@ -142,4 +142,4 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile"]
