@@ -73,10 +73,39 @@ def process_command(args: argparse.Namespace) -> int:
     print(f"roadtex process: {summary}")
     for name, path in summary.tables.items():
         print(f"  {name:<11} {path}")
+    upsampled = upsampled_runs(summary.tables.get("runs"))
+    if upsampled:
+        print(f"roadtex process: warning: {upsampled}", file=sys.stderr)
     if summary.failed_on_record:
         print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
               f"{summary.tables.get('errors')}", file=sys.stderr)
     return 1 if summary.failed_on_record else 0
+
+
+#: A file sampled this many times more coarsely than the job's interval is reported as upsampled.
+UPSAMPLED_RATIO = 1.5
+
+
+def upsampled_runs(runs_table: Path | None) -> str | None:
+    """What to tell the user when some runs' files were sampled more coarsely than the job's one
+    interval (runs.parquet ``file_dx`` against ``dx_used``), or None. Such a run is upsampled,
+    each reading repeated over its interval: its contact measures and short-wavelength levels are
+    those of a staircase, not comparable with the finer runs of the same job."""
+    import polars as pl
+
+    if runs_table is None or not Path(runs_table).is_file():
+        return None
+    runs = pl.read_parquet(runs_table, columns=["run_id", "file_dx", "dx_used"])
+    coarse = runs.filter(pl.col("file_dx") > UPSAMPLED_RATIO * pl.col("dx_used"))
+    if coarse.height == 0:
+        return None
+    examples = ", ".join(f"{r['run_id']} ({r['file_dx'] * 1e3:.3g} mm)" for r in coarse.head(3).iter_rows(named=True))
+    more = f" and {coarse.height - 3} more" if coarse.height > 3 else ""
+    return (f"{coarse.height} run(s) were sampled more coarsely than the job's interval of "
+            f"{coarse['dx_used'][0] * 1e3:.3g} mm and were upsampled to it: {examples}{more}. Their contact "
+            "measures and short-wavelength levels describe the file's staircase, not the road, and differ from "
+            "a finer file of the same road; process runs of different sampling in separate jobs, or pass "
+            "--dx at the coarsest interval (runs.parquet: file_dx, dx_used).")
 
 
 def error_budget(text: str) -> float | None:

@@ -170,3 +170,39 @@ def test_the_manifest_names_the_format_each_file_was_read_as(tmp_path: Path, cap
     manifest = roadtex.build_manifest(survey)
     assert manifest["format"].to_list() == ["captif", "parquet", "csv", None]
     assert roadtex.read_profile(survey / "b_station.parquet").metadata["format"] == "captif"
+
+
+def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A colleague's file at 1 mm among 0.25 mm runs is upsampled to 0.25 mm (the job's one
+    interval): a staircase whose contact differs from the same road's fine file. The command
+    line says so, and its advice (--dx at the coarsest interval) makes the two files agree."""
+    from roadtex.cli import main
+
+    road = roadtex.synthetic_pavement("dense_asphalt", length=1.0, dx=0.25e-3, seed=4)
+    survey = tmp_path / "survey"
+    survey.mkdir()
+    fine = table(road.positions * 1e3, road.heights * 1e3, ",", comma=False)
+    (survey / "fine.csv").write_text("distance (mm),height (mm)\n" + fine)
+    n = road.heights.size // 4 * 4
+    blocks = road.heights[:n].reshape(-1, 4).mean(axis=1)     # what a 1 mm profilometer averages
+    coarse = table(road.positions[:n:4] * 1e3, blocks * 1e3, ",", comma=False)
+    (survey / "coarse.csv").write_text("distance (mm),height (mm)\n" + coarse)
+    assert main(["manifest", str(survey), "--out", str(tmp_path / "manifest.csv")]) == 0
+
+    def contact(out: str, *extra: str) -> tuple[dict[str, float], str]:
+        capsys.readouterr()
+        code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / out), "--moduli", "2",
+                     "--error-budget", "off", "--quiet", *extra])
+        assert code == 0
+        segments = pl.read_parquet(tmp_path / out / "segments.parquet")
+        means = segments.group_by("run_id").agg(pl.col("contact_fraction").mean())
+        return dict(zip(means["run_id"], means["contact_fraction"])), capsys.readouterr().err
+
+    upsampled, said = contact("finest")
+    assert "1 run(s) were sampled more coarsely than the job's interval of 0.25 mm" in said
+    assert "coarse (1 mm)" in said and "--dx" in said
+    same_grid, said = contact("coarsest", "--dx", "1e-3")
+    assert "upsampled" not in said
+    gap_upsampled = abs(upsampled["coarse"] - upsampled["fine"])
+    gap_same_grid = abs(same_grid["coarse"] - same_grid["fine"])
+    assert gap_upsampled > 0.015 and gap_same_grid < gap_upsampled / 5, (upsampled, same_grid)
