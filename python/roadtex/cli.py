@@ -129,7 +129,31 @@ def manifest_command(args: argparse.Namespace) -> int:
         return 2
     table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
+    unreadable = [path for path, fmt in zip(table["path"], table["format"])
+                  if fmt is None and Path(path).suffix.lower() != ".crg"]
+    if unreadable:
+        print(f"roadtex manifest: warning: {len(unreadable)} of the files cannot be read as they are; they are listed, "
+              "and roadtex process records them as failed unless the manifest gives what they need:", file=sys.stderr)
+        for path in unreadable[:10]:
+            print(f"  {read_problem(path)}", file=sys.stderr)
+        if len(unreadable) > 10:
+            print(f"  ... and {len(unreadable) - 10} more", file=sys.stderr)
     return 0
+
+
+def read_problem(path: str) -> str:
+    """Why a profile file cannot be read with the default options (the reader's message names it)."""
+    import warnings
+
+    from roadtex.profiles.readers import read_profile
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            read_profile(path)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is reported, not raised
+        return str(exc)
+    return f"{Path(path).name}: read now"   # changed since it was listed
 
 
 def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:

@@ -206,3 +206,19 @@ def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path,
     gap_upsampled = abs(upsampled["coarse"] - upsampled["fine"])
     gap_same_grid = abs(same_grid["coarse"] - same_grid["fine"])
     assert gap_upsampled > 0.015 and gap_same_grid < gap_upsampled / 5, (upsampled, same_grid)
+
+
+def test_roadtex_manifest_names_the_files_it_cannot_read_and_why(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from roadtex.cli import main
+
+    x, z = written()
+    (tmp_path / "good.csv").write_text("distance (mm);height (mm)\n" + table(x, z))
+    (tmp_path / "bare.csv").write_text("distance;height\n" + table(x, z))
+    (tmp_path / "empty.csv").write_bytes(b"")
+    (tmp_path / "junk.csv").write_bytes(bytes(range(256)) * 4)
+    assert main(["manifest", str(tmp_path), "--out", str(tmp_path / "manifest.csv")]) == 0
+    said = capsys.readouterr().err
+    assert "3 of the files cannot be read" in said and "good.csv" not in said
+    assert "empty.csv is empty" in said and "junk.csv looks like binary data" in said
+    assert "bare.csv: no unit for the height column 'height' and the distance column 'distance'" in said
+    assert pl.read_csv(tmp_path / "manifest.csv").height == 4     # listed all the same
