@@ -222,3 +222,19 @@ def test_roadtex_manifest_names_the_files_it_cannot_read_and_why(tmp_path: Path,
     assert "empty.csv is empty" in said and "junk.csv looks like binary data" in said
     assert "bare.csv: no unit for the height column 'height' and the distance column 'distance'" in said
     assert pl.read_csv(tmp_path / "manifest.csv").height == 4     # listed all the same
+
+
+@pytest.mark.parametrize("header", ["Distance;Height\nmm;mm\n", "Site: A1\n\n\"Distance\";\"Height\"\n[mm];[mm]\n",
+                                    "Distance;Height\n(mm);(mm)\n"], ids=["bare", "after-metadata", "parenthesised"])
+def test_two_header_rows_names_then_units(tmp_path: Path, header: str) -> None:
+    x, z = written()
+    path = tmp_path / "two.csv"
+    path.write_text(header + table(x, z))
+    assert_written(read_quietly(path), x, z)
+
+
+def test_heights_only_without_dx_says_where_to_give_it(tmp_path: Path) -> None:
+    _, z = written()
+    np.save(tmp_path / "dump.npy", z * 1e-3)
+    with pytest.raises(ProfileFormatError, match=r"dump\.npy: heights only .*manifest column dx or roadtex process --input-dx"):
+        roadtex.read_profile(tmp_path / "dump.npy")

@@ -20,6 +20,7 @@ from roadtex.profiles.readers.text import (
     parse_value,
     pick_column,
 )
+from roadtex.profiles.units import UNITS
 
 #: The comment line tag under which :func:`roadtex.write_profile` stores metadata and history.
 ROADTEX_TAG = "roadtex-profile"
@@ -84,6 +85,12 @@ def preamble_length(rest: list[bytes]) -> int:
     return 0
 
 
+def is_units_row(line: bytes) -> bool:
+    """A header line of units only (``mm;mm``, ``[m]\t[mm]``): the second of two header rows."""
+    fields = [f.strip().strip('"').strip("()[] ") for f in re.split(r"[\t;,]", line.decode("utf-8", "replace"))]
+    return any(fields) and all(f.lower() in UNITS or f in ("", "-") for f in fields)
+
+
 def preamble_metadata(lines: list[bytes]) -> tuple[dict[str, object], str | None]:
     """The ``key: value`` (or ``=``, ``;``, tab) pairs of a metadata block, and Excel's ``sep=X`` delimiter."""
     metadata: dict[str, object] = {}
@@ -132,6 +139,12 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if not rest:
         raise ProfileFormatError(f"{name}: no data (only comments or blank lines)")
     preamble = preamble_length(rest)
+    names_line = None
+    if preamble and is_units_row(rest[preamble]):
+        # two header rows, names then units ("Distance;Height" / "mm;mm"): the names are the
+        # last line before the units
+        names_at = max(i for i in range(preamble) if rest[i].strip())
+        names_line, preamble = rest[names_at], names_at
     if preamble:
         found, hint = preamble_metadata(rest[:preamble])
         for key, value in found.items():
@@ -140,8 +153,10 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
             options = {**options, "delimiter": hint}
         history.append(f"{preamble} line(s) before the table's header read as metadata "
                        f"({', '.join(found) or 'none recognised'})")
-        skip += preamble
-        rest = rest[preamble:]
+    if names_line is not None:
+        preamble += 1       # the names line too: the units line stands as the header below
+    skip += preamble
+    rest = rest[preamble:]
     separator = options.get("delimiter") or sniff_separator(rest[:5])
     offset = ends[skip - 1] if skip else 0
     body = data[offset:]
@@ -162,6 +177,12 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if decimal == "," and separator == ",":
         raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give delimiter=")
     first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
+    if names_line is not None:
+        units = first
+        first = [f.strip().strip('"') for f in names_line.decode("utf-8", "replace").split(separator)]
+        if len(first) != len(units):
+            raise ProfileFormatError(f"{name}: the header's names {first} and units {units} differ in number")
+        first = [f"{n} ({u.strip('()[] ')})" if u.strip("()[] ") else n for n, u in zip(first, units)]
     has_header = not all(is_number(f, decimal) for f in first)
     if has_header and len(rest) > 1:
         data_columns = len(rest[1].decode("utf-8", "replace").split(separator))
