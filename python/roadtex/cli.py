@@ -71,8 +71,9 @@ def process_command(args: argparse.Namespace) -> int:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
     print(f"roadtex process: {summary}")
+    width = max((len(name) for name in summary.tables), default=0)
     for name, path in summary.tables.items():
-        print(f"  {name:<11} {path}")
+        print(f"  {name:<{width}} {path}")
     upsampled = upsampled_runs(summary.tables.get("runs"))
     if upsampled:
         print(f"roadtex process: warning: {upsampled}", file=sys.stderr)

@@ -196,7 +196,11 @@ def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path,
         assert code == 0
         segments = pl.read_parquet(tmp_path / out / "segments.parquet")
         means = segments.group_by("run_id").agg(pl.col("contact_fraction").mean())
-        return dict(zip(means["run_id"], means["contact_fraction"])), capsys.readouterr().err
+        said = capsys.readouterr()
+        # the tables it lists are aligned in one column, surface_examples included
+        listed = [line for line in said.out.splitlines() if line.startswith("  ")]
+        assert len(listed) >= 8 and len({line.index(str(tmp_path)) for line in listed}) == 1, said.out
+        return dict(zip(means["run_id"], means["contact_fraction"])), said.err
 
     upsampled, said = contact("finest")
     assert "1 run(s) were sampled more coarsely than the job's interval of 0.25 mm" in said
