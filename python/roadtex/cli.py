@@ -199,9 +199,11 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     reading = parser.add_argument_group("reading files (defaults for every run; manifest columns of the same "
                                         "names override them per run)")
     reading.add_argument("--distance-unit", default=None, metavar="UNIT",
-                         help="unit of the distance column when the header has none (m, mm, um)")
+                         help="unit of the distance column of files whose header states none (m, mm, um); "
+                              "a unit in a header is kept")
     reading.add_argument("--height-unit", default=None, metavar="UNIT",
-                         help="unit of the height column when the header has none (m, mm, um)")
+                         help="unit of the height column of files whose header states none (m, mm, um); "
+                              "a unit in a header is kept")
     reading.add_argument("--delimiter", default=None, help="column delimiter of text files (default: sniffed)")
     reading.add_argument("--decimal", default=None, choices=[".", ","],
                          help="decimal mark of text files (default: sniffed; ',' for European exports)")

@@ -242,3 +242,40 @@ def test_heights_only_without_dx_says_where_to_give_it(tmp_path: Path) -> None:
     np.save(tmp_path / "dump.npy", z * 1e-3)
     with pytest.raises(ProfileFormatError, match=r"dump\.npy: heights only .*manifest column dx or roadtex process --input-dx"):
         roadtex.read_profile(tmp_path / "dump.npy")
+
+
+def test_a_given_unit_fills_in_and_never_rescales_a_header_unit(tmp_path: Path, captif_dir: Path) -> None:
+    """--height-unit (a job's reader default) is for files whose header states no unit: a file whose
+    header says um keeps um, with a warning, and gives the same road as its headerless mm twin."""
+    from roadtex.errors import UnitConflictWarning
+
+    x, z = written()
+    micrometres = tmp_path / "um.csv"
+    micrometres.write_text("distance (mm);height (um)\n" + "".join(f"{a:.3f};{b * 1e3:.0f}\n" for a, b in zip(x, z)))
+    with pytest.warns(UnitConflictWarning, match=r"um\.csv: the height column 'height \(um\)' states its unit, um; "
+                                                  r"the height_unit 'mm' given is ignored"):
+        profile = roadtex.read_profile(micrometres, height_unit="mm")
+    assert_written(profile, x, z)
+    # CAPTIF files state mm: a job-wide um does not rescale them either
+    station = captif_dir / "20211011_aylesbury_dec_station_0.dat"
+    rows = station.read_text().split("*****DATA*****", 1)[1].splitlines()[2:7]
+    first_heights = [float(r.split("\t")[2]) * 1e-3 for r in rows]
+    with pytest.warns(UnitConflictWarning, match="20211011_aylesbury_dec_station_0.dat: the height column 'Depth"):
+        captif = roadtex.read_profile(station, height_unit="um")
+    np.testing.assert_allclose(captif.heights[:5], first_heights, rtol=0, atol=1e-15)
+
+    survey = tmp_path / "survey"
+    survey.mkdir()
+    road = roadtex.synthetic_pavement("dense_asphalt", length=0.6, dx=0.5e-3, seed=5)
+    mm = np.round(road.heights * 1e3, 3)
+    (survey / "bare.csv").write_text("".join(f"{a * 1e3:.3f},{b:.3f}\n" for a, b in zip(road.positions, mm)))
+    (survey / "stated.csv").write_text("distance (mm),height (um)\n" +
+                                       "".join(f"{a * 1e3:.3f},{b * 1e3:.0f}\n" for a, b in zip(road.positions, mm)))
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), error_budget_db=None,
+                                        reader_defaults={"distance_unit": "mm", "height_unit": "mm"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnitConflictWarning)
+        roadtex.process(roadtex.build_manifest(survey), tmp_path / "results", options)
+    runs = pl.read_parquet(tmp_path / "results" / "runs.parquet").sort("run_id")
+    assert runs["run_id"].to_list() == ["bare", "stated"]
+    assert runs["mpd"][1] == pytest.approx(runs["mpd"][0], rel=1e-9) and 0.2e-3 < runs["mpd"][0] < 3e-3

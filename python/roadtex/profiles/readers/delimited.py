@@ -230,12 +230,12 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
     check_units_given(names, {"height": (h_index, options.get("height_unit")),
                               "distance": (d_index, options.get("distance_unit"))})
-    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height")
+    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
     if d_index is not None:
         if absent[:, d_index].any():
             row = int(row_numbers[np.flatnonzero(absent[:, d_index])[0]])
             raise ProfileFormatError(f"{name}: data row {row + 1} (line {first_data_line + row}) has no distance")
-        positions = table[:, d_index] * column_unit(names, d_index, options.get("distance_unit"), "distance")
+        positions = table[:, d_index] * column_unit(names, d_index, options.get("distance_unit"), "distance", source=name)
     else:
         positions = grid_positions(heights.size, options, name)
     metadata.setdefault("format", "csv")

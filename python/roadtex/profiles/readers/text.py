@@ -6,11 +6,12 @@ from __future__ import annotations
 import io
 import math
 import re
+import warnings
 
 import numpy as np
 import polars as pl
 
-from roadtex.errors import ProfileFormatError
+from roadtex.errors import ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.units import UNITS, unit_factor
 
 #: Column names (lower case, unit stripped) taken as the distance or height column when none is given.
@@ -122,14 +123,24 @@ def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str
                                  f"'um', ...) as a read_profile option, a manifest column or roadtex process {flags}")
 
 
-def column_unit(names: list[str], index: int, given: str | None, what: str) -> float:
-    if given is not None:
-        return unit_factor(given, what)
-    unit = split_column_name(names[index])[1]
-    if unit is None:
-        raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit ('m', 'mm', "
-                                 f"'um', ...; {WHERE_OPTIONS.format(flag=what + '-unit')})")
-    return unit_factor(unit, f"the {what} column {names[index]!r}")
+def column_unit(names: list[str], index: int, given: str | None, what: str, *, source: str = "file",
+                default: str | None = None) -> float:
+    """Factor to metres of a column: the unit its header states; else the unit given, else
+    ``default``. A given unit that disagrees with the header's is ignored with a
+    :class:`UnitConflictWarning` (``source`` names the file): a job-wide ``--height-unit`` is for
+    files whose header states none, and must not rescale the others."""
+    stated = split_column_name(names[index])[1]
+    if stated is None:
+        if given is None and default is None:
+            raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit ('m', 'mm', "
+                                     f"'um', ...; {WHERE_OPTIONS.format(flag=what + '-unit')})")
+        return unit_factor(given if given is not None else default, what)  # type: ignore[arg-type]
+    factor = unit_factor(stated, f"the {what} column {names[index]!r}")
+    if given is not None and unit_factor(given, what) != factor:
+        warnings.warn(f"{source}: the {what} column {names[index]!r} states its unit, {stated}; the {what}_unit "
+                      f"{given!r} given is ignored for it (a given unit applies where the header states none)",
+                      UnitConflictWarning, stacklevel=6)
+    return factor
 
 
 def nominal_dx(positions: np.ndarray) -> float:
