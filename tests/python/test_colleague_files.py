@@ -253,9 +253,10 @@ def test_a_given_unit_fills_in_and_never_rescales_a_header_unit(tmp_path: Path, 
     micrometres = tmp_path / "um.csv"
     micrometres.write_text("distance (mm);height (um)\n" + "".join(f"{a:.3f};{b * 1e3:.0f}\n" for a, b in zip(x, z)))
     with pytest.warns(UnitConflictWarning, match=r"um\.csv: the height column 'height \(um\)' states its unit, um; "
-                                                  r"the height_unit 'mm' given is ignored"):
+                                                  r"the height_unit 'mm' given is ignored") as caught:
         profile = roadtex.read_profile(micrometres, height_unit="mm")
     assert_written(profile, x, z)
+    assert caught[0].filename == __file__    # the warning points at the read_profile call
     # CAPTIF files state mm: a job-wide um does not rescale them either
     station = captif_dir / "20211011_aylesbury_dec_station_0.dat"
     rows = station.read_text().split("*****DATA*****", 1)[1].splitlines()[2:7]

@@ -139,7 +139,7 @@ def column_unit(names: list[str], index: int, given: str | None, what: str, *, s
     if given is not None and unit_factor(given, what) != factor:
         warnings.warn(f"{source}: the {what} column {names[index]!r} states its unit, {stated}; the {what}_unit "
                       f"{given!r} given is ignored for it (a given unit applies where the header states none)",
-                      UnitConflictWarning, stacklevel=6)
+                      UnitConflictWarning, stacklevel=5)   # the caller of read_profile
     return factor
 
 
