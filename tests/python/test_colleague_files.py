@@ -280,3 +280,11 @@ def test_a_given_unit_fills_in_and_never_rescales_a_header_unit(tmp_path: Path, 
     runs = pl.read_parquet(tmp_path / "results" / "runs.parquet").sort("run_id")
     assert runs["run_id"].to_list() == ["bare", "stated"]
     assert runs["mpd"][1] == pytest.approx(runs["mpd"][0], rel=1e-9) and 0.2e-3 < runs["mpd"][0] < 3e-3
+
+
+def test_a_decimal_comma_forced_on_a_comma_separated_file_says_where_to_give_the_delimiter(tmp_path: Path) -> None:
+    x, z = written()
+    path = tmp_path / "points.csv"
+    path.write_text("distance (mm),height (mm)\n" + table(x, z, ",", comma=False))
+    with pytest.raises(ProfileFormatError, match=r"points\.csv: a comma cannot be both .*roadtex process --delimiter"):
+        roadtex.read_profile(path, decimal=",")

@@ -175,7 +175,8 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if decimal not in (".", ","):
         raise ProfileFormatError(f"{name}: decimal must be '.' or ',', got {decimal!r}")
     if decimal == "," and separator == ",":
-        raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give delimiter=")
+        raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give the "
+                                 "delimiter (a read_profile option, manifest column or roadtex process --delimiter)")
     first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
     if names_line is not None:
         units = first
