@@ -71,12 +71,42 @@ def process_command(args: argparse.Namespace) -> int:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
     print(f"roadtex process: {summary}")
+    width = max((len(name) for name in summary.tables), default=0)
     for name, path in summary.tables.items():
-        print(f"  {name:<11} {path}")
+        print(f"  {name:<{width}} {path}")
+    upsampled = upsampled_runs(summary.tables.get("runs"))
+    if upsampled:
+        print(f"roadtex process: warning: {upsampled}", file=sys.stderr)
     if summary.failed_on_record:
         print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
               f"{summary.tables.get('errors')}", file=sys.stderr)
     return 1 if summary.failed_on_record else 0
+
+
+#: A file sampled this many times more coarsely than the job's interval is reported as upsampled.
+UPSAMPLED_RATIO = 1.5
+
+
+def upsampled_runs(runs_table: Path | None) -> str | None:
+    """What to tell the user when some runs' files were sampled more coarsely than the job's one
+    interval (runs.parquet ``file_dx`` against ``dx_used``), or None. Such a run is upsampled,
+    each reading repeated over its interval: its contact measures and short-wavelength levels are
+    those of a staircase, not comparable with the finer runs of the same job."""
+    import polars as pl
+
+    if runs_table is None or not Path(runs_table).is_file():
+        return None
+    runs = pl.read_parquet(runs_table, columns=["run_id", "file_dx", "dx_used"])
+    coarse = runs.filter(pl.col("file_dx") > UPSAMPLED_RATIO * pl.col("dx_used"))
+    if coarse.height == 0:
+        return None
+    examples = ", ".join(f"{r['run_id']} ({r['file_dx'] * 1e3:.3g} mm)" for r in coarse.head(3).iter_rows(named=True))
+    more = f" and {coarse.height - 3} more" if coarse.height > 3 else ""
+    return (f"{coarse.height} run(s) were sampled more coarsely than the job's interval of "
+            f"{coarse['dx_used'][0] * 1e3:.3g} mm and were upsampled to it: {examples}{more}. Their contact "
+            "measures and short-wavelength levels describe the file's staircase, not the road, and differ from "
+            "a finer file of the same road; process runs of different sampling in separate jobs, or pass "
+            "--dx at the coarsest interval (runs.parquet: file_dx, dx_used).")
 
 
 def error_budget(text: str) -> float | None:
@@ -100,7 +130,31 @@ def manifest_command(args: argparse.Namespace) -> int:
         return 2
     table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
+    unreadable = [path for path, fmt in zip(table["path"], table["format"])
+                  if fmt is None and Path(path).suffix.lower() != ".crg"]
+    if unreadable:
+        print(f"roadtex manifest: warning: {len(unreadable)} of the files cannot be read as they are; they are listed, "
+              "and roadtex process records them as failed unless the manifest gives what they need:", file=sys.stderr)
+        for path in unreadable[:10]:
+            print(f"  {read_problem(path)}", file=sys.stderr)
+        if len(unreadable) > 10:
+            print(f"  ... and {len(unreadable) - 10} more", file=sys.stderr)
     return 0
+
+
+def read_problem(path: str) -> str:
+    """Why a profile file cannot be read with the default options (the reader's message names it)."""
+    import warnings
+
+    from roadtex.profiles.readers import read_profile
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            read_profile(path)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is reported, not raised
+        return str(exc)
+    return f"{Path(path).name}: read now"   # changed since it was listed
 
 
 def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
@@ -145,9 +199,11 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     reading = parser.add_argument_group("reading files (defaults for every run; manifest columns of the same "
                                         "names override them per run)")
     reading.add_argument("--distance-unit", default=None, metavar="UNIT",
-                         help="unit of the distance column when the header has none (m, mm, um)")
+                         help="unit of the distance column of files whose header states none (m, mm, um); "
+                              "a unit in a header is kept")
     reading.add_argument("--height-unit", default=None, metavar="UNIT",
-                         help="unit of the height column when the header has none (m, mm, um)")
+                         help="unit of the height column of files whose header states none (m, mm, um); "
+                              "a unit in a header is kept")
     reading.add_argument("--delimiter", default=None, help="column delimiter of text files (default: sniffed)")
     reading.add_argument("--decimal", default=None, choices=[".", ","],
                          help="decimal mark of text files (default: sniffed; ',' for European exports)")

@@ -85,6 +85,11 @@ class ErrorBudgetWarning(RoadtexWarning):
     reachable error and states it per band."""
 
 
+class UnitConflictWarning(RoadtexWarning):
+    """A unit was given for a file column whose header states another: the header's unit is used
+    (a given unit fills in only where the header states none)."""
+
+
 class ConditioningWarning(RoadtexWarning):
     """Conditioning removed more of a profile than a sound measurement would need (trimmed length,
     spikes, drop-outs beyond the documented thresholds)."""
@@ -94,5 +99,5 @@ __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
-    "ErrorBudgetWarning",
+    "ErrorBudgetWarning", "UnitConflictWarning",
 ]

@@ -14,9 +14,13 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
-#: ../shared/data/captif-slp beside the repository (see the brief: real data lives outside the repo);
-#: ROADTEX_CAPTIF_DIR overrides it (a git worktree elsewhere than beside ../shared).
-CAPTIF_DIR = Path(os.environ.get("ROADTEX_CAPTIF_DIR") or HERE.parents[2] / "shared" / "data" / "captif-slp")
+#: ../shared/data/captif-slp beside the repository (see the brief: real data lives outside the repo),
+#: or beside any folder above it (a git worktree nested one level deeper, /work/wt/NAME, finds
+#: /work/shared); ROADTEX_CAPTIF_DIR overrides it.
+CAPTIF_DIR = Path(os.environ.get("ROADTEX_CAPTIF_DIR") or next(
+    (folder / "shared" / "data" / "captif-slp" for folder in HERE.parents[2:]
+     if (folder / "shared" / "data" / "captif-slp").is_dir()),
+    HERE.parents[2] / "shared" / "data" / "captif-slp"))
 
 #: The three laser-profilometer files captif-slp publishes (CAPTIF, Aylesbury, 11 October 2021).
 CAPTIF_FILE_NAMES = (

@@ -35,7 +35,7 @@ def write_colleague_exports(clean: Path, folder: Path) -> dict[str, dict[str, ob
     Returns:
         file name -> manifest reader columns a user has to add for it (units the file does not
         state, a heights-only file's sampling interval). A file whose value is ``{"refused": ...}``
-        carries no such help and must be refused with that text in its reason.
+        carries no such help (or a wrong one) and must be refused with that text in its reason.
     """
     folder.mkdir(parents=True, exist_ok=True)
     text = clean.read_text(encoding="utf-8")
@@ -75,6 +75,23 @@ def write_colleague_exports(clean: Path, folder: Path) -> dict[str, dict[str, ob
 
     (folder / "xz.csv").write_text("x,z\n" + "".join(f"{d},{h}\n" for d, h in cells), encoding="utf-8")
     exports["xz.csv"] = {"distance_unit": "mm", "height_unit": "mm"}
+
+    # a survey tool's export: a metadata block without comment marks before the header, Windows
+    # line ends, a UTF-8 byte-order mark, decimal commas
+    table_eu = "".join(f"{d.replace('.', ',')};{h.replace('.', ',')}\n" for d, h in cells)
+    block = "Site: CAPTIF\nOperator: A. Colleague\nDate: 2021-10-11\n\nDistance (mm);Height (mm)\n"
+    (folder / "metadata_block.csv").write_bytes(("\ufeff" + block + table_eu).replace("\n", "\r\n").encode("utf-8"))
+    exports["metadata_block.csv"] = {}
+
+    # Excel's "Save as CSV" in a European locale: a sep= line, quoted names, blank and ";" lines at the end
+    excel = 'sep=;\n"Distance (mm)";"Height (mm)"\n' + table_eu + ";\n;\n\n"
+    (folder / "excel.csv").write_bytes(excel.replace("\n", "\r\n").encode("utf-8"))
+    exports["excel.csv"] = {}
+
+    # the headerless file again, but the colleague says micrometres for heights written in mm:
+    # 1000 times too small, which must be refused rather than solved
+    shutil.copy(folder / "headerless.tsv", folder / "mm_said_um.tsv")
+    exports["mm_said_um.tsv"] = {"distance_unit": "mm", "height_unit": "um", "refused": "implausibly small"}
 
     # heights only, in metres, on the file's nominal grid (a colleague's numpy dump)
     spacing_m = float((distance_mm[-1] - distance_mm[0]) / (distance_mm.size - 1)) * 1e-3

@@ -136,3 +136,66 @@ def test_build_manifest_lists_opencrg_surfaces_beside_profiles(tmp_path: Path, c
     (tmp_path / "station.dat").write_bytes((captif_dir / "20211011_aylesbury_dec_station_0.dat").read_bytes())
     table = roadtex.build_manifest(tmp_path)
     assert sorted(Path(p).name for p in table["path"]) == ["lane.crg", "station.dat"]
+
+
+def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) -> None:
+    """Runs at 0.25 and 0.5 mm get a pilot each; every run's rows state its own group's estimates,
+    not the largest over the groups (the 0.5 mm group's floor used to be stamped on the 0.25 mm run)."""
+    folder, _ = mixed
+    out = tmp_path / "budget"
+    with pytest.warns(roadtex.errors.ErrorBudgetWarning, match="@ 0.5 mm"):
+        summary = process(folder / "manifest.csv", out, OPTIONS, quiet=True)
+    assert summary.failed_on_record == 0
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    groups = plan["group_errors"]
+    assert sorted(g["spacing"] for g in groups.values()) == [0.25e-3, 0.5e-3]
+    by_spacing = {g["spacing"]: g for g in groups.values()}
+    runs = pl.read_parquet(out / "runs.parquet")
+    bands = pl.read_parquet(out / "bands.parquet").filter(pl.col("level_error_db").is_not_null())
+    differs = False
+    for run in runs.iter_rows(named=True):
+        group = by_spacing[float(f"{run['file_dx']:.2g}")]
+        assert run["worst_level_error_db"] == group["worst_error_db"]
+        assert run["within_budget"] == group["within_budget"]
+        stated = dict(bands.filter(pl.col("run_id") == run["run_id"]).select("band", "level_error_db").unique().iter_rows())
+        expected = {int(b): e for b, e in group["band_error_db"].items() if np.isfinite(e)}
+        assert stated == {b: expected[b] for b in stated} and stated
+        largest = {int(b): e for b, e in plan["band_error_db"].items()}
+        differs |= any(stated[b] < largest[b] for b in stated)
+    assert differs, "every run got the largest estimate of any group"
+
+
+def test_the_pilot_skips_runs_the_job_refuses_for_their_units(mixed, tmp_path: Path) -> None:
+    """A file of heights in mm read as micrometres is refused by the job; the pilot must not measure
+    it either (it used to, and its warnings named no file)."""
+    folder, _ = mixed
+    fine = roadtex.read_profile(folder / "fine.csv")
+    np.savetxt(tmp_path / "um.csv", np.column_stack([fine.positions, fine.heights * 1e3]), delimiter=",",
+               header="distance (m),height (um)", comments="")  # the heights are mm: 1000 times too small
+    (tmp_path / "fine.csv").write_bytes((folder / "fine.csv").read_bytes())
+    manifest = tmp_path / "manifest.csv"
+    pl.DataFrame({"path": ["fine.csv", "um.csv"]}).write_csv(manifest)
+    out = tmp_path / "out"
+    summary = process(manifest, out, OPTIONS, quiet=True)
+    errors = pl.read_parquet(out / "errors.parquet")
+    assert summary.failed_on_record == 1 and "implausibly small" in errors["message"][0], errors
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    piloted = [run for runs in plan["groups"].values() for run in runs]
+    assert piloted == ["fine"], plan["groups"]
+
+
+def test_an_upsampled_file_reports_only_the_bands_its_own_sampling_resolves(mixed) -> None:
+    """The 0.5 mm file, solved at the job's 0.25 mm, keeps its rows below 2.5 x 0.5 mm but does not
+    report them, saying why; the 0.25 mm file of the same road reports them."""
+    _, out = mixed
+    bands = pl.read_parquet(out / "bands.parquet").filter(pl.col("segment") == 0)
+    fine = bands.filter(pl.col("run_id") == "fine").sort("band")
+    coarse = bands.filter(pl.col("run_id") == "coarse").sort("band")
+    assert fine["band"].to_list() == coarse["band"].to_list()
+    # Independent of the code under test: ISO 13473-4's 2.5 points per centre wavelength at 0.5 mm.
+    unresolved = (coarse["centre_wavelength"] < 2.5 * 0.5e-3 * (1 - 1e-9)) & fine["reported"]
+    assert unresolved.sum() >= 2
+    assert not coarse.filter(unresolved)["reported"].any()
+    assert all("sampled at 0.5 mm" in r for r in coarse.filter(unresolved)["reason"])
+    assert coarse.filter(~unresolved)["reported"].to_list() == fine.filter(~unresolved)["reported"].to_list()
+    assert coarse.filter(unresolved)["texture_level"].is_not_null().all()   # kept, not dropped

@@ -88,6 +88,10 @@ def test_colleagues_exports_are_processed_or_refused_with_a_reason(exported, pro
     runs = pl.read_parquet(work / "results" / "runs.parquet")
     assert sorted(Path(p).name for p in runs["path"]) == sorted(set(exports) - set(refused))
     assert "no_units_given" in (work / "results" / "report" / "report.html").read_text(encoding="utf-8")
+    # a metadata block before the table fills the manifest's columns as a CAPTIF header does
+    listed = pl.read_csv(work / "manifest.csv", infer_schema=False)
+    block = listed.row(by_predicate=pl.col("path").str.ends_with("metadata_block.csv"), named=True)
+    assert (block["site"], block["date"]) == ("CAPTIF", "2021-10-11"), block
 
 
 def test_exports_agree_with_the_clean_file(processed) -> None:
@@ -108,7 +112,7 @@ def test_exports_agree_with_the_clean_file(processed) -> None:
     by_run = {name: segments.filter(pl.col("run_id") == Path(name).stem)["contact_fraction"].to_numpy()
               for name in runs["name"]}
     # the same numbers in another file format give the same contact, to rounding
-    for name in ("headerless.tsv", "european.csv", "xz.csv"):
+    for name in ("headerless.tsv", "european.csv", "xz.csv", "metadata_block.csv", "excel.csv"):
         np.testing.assert_allclose(by_run[name], by_run["clean.dat"], atol=1e-9, err_msg=name)
     # heights only: the file's small position jitter is lost, so the grid differs by a fraction of a sample
     np.testing.assert_allclose(by_run["heights_only.npy"], by_run["clean.dat"], atol=1e-3)
@@ -123,13 +127,12 @@ def test_a_rerun_keeps_failures_on_record_until_retried(exported, processed, tmp
     again = subprocess.run([str(ROADTEX), "process", "manifest.csv", "--out", "results/"], cwd=work,
                            capture_output=True, text=True, timeout=600)
     assert again.returncode == 1 and "0 failed" in again.stdout and "earlier" in again.stdout, again.stdout
-    # the user gives the missing units, and retries
+    # the user gives the missing units, corrects the wrong one, and retries
     table = pl.read_csv(work / "manifest.csv", infer_schema=False)
+    fixed = pl.col("path").str.ends_with("no_units_given.tsv") | pl.col("path").str.ends_with("mm_said_um.tsv")
     table = table.with_columns(
-        pl.when(pl.col("path").str.ends_with("no_units_given.tsv")).then(pl.lit("mm")).otherwise(pl.col("height_unit"))
-        .alias("height_unit"),
-        pl.when(pl.col("path").str.ends_with("no_units_given.tsv")).then(pl.lit("mm")).otherwise(pl.col("distance_unit"))
-        .alias("distance_unit"))
+        pl.when(fixed).then(pl.lit("mm")).otherwise(pl.col("height_unit")).alias("height_unit"),
+        pl.when(fixed).then(pl.lit("mm")).otherwise(pl.col("distance_unit")).alias("distance_unit"))
     table.write_csv(work / "manifest_fixed.csv")
     retried = subprocess.run([str(ROADTEX), "process", "manifest_fixed.csv", "--out", "results/", "--retry-failed"],
                              cwd=work, capture_output=True, text=True, timeout=600)

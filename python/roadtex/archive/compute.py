@@ -27,7 +27,7 @@ from roadtex.profiles.plausibility import implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import read_profile
 from roadtex.spectra.analysis import time_frequency
-from roadtex.spectra.bands import REFERENCE_PRESSURE
+from roadtex.spectra.bands import REFERENCE_PRESSURE, band_table
 from roadtex.spectra.levels import band_levels
 
 #: Segments solved per call of the Rust core; bounds memory on long runs.
@@ -47,6 +47,23 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
         raise
     except BaseException as exc:  # noqa: BLE001 - see the docstring: panics are BaseExceptions
         raise RunFailure(stage, exc) from exc
+
+
+def within_file_sampling(bands: pl.DataFrame, file_dx: float, dx: float, length: float,
+                         options: ProcessingOptions) -> pl.DataFrame:
+    """``bands`` (reported at the job's ``dx``, m) with the bands a file sampled more coarsely
+    (``file_dx``, m) cannot resolve marked not reported, and why: interpolation to the job's
+    interval adds points, not wavelengths. The rows and their levels are kept."""
+    if file_dx <= dx * (1.0 + 1e-9):
+        return bands
+    at_file = band_table(file_dx, length, options.band_kind)
+    lost = bands["reported"] & ~at_file["reported"]
+    if not lost.any():
+        return bands
+    why = pl.Series([f"the file was sampled at {file_dx * 1e3:.4g} mm and interpolated to {dx * 1e3:.4g} mm: {reason}"
+                     for reason in at_file["reason"].fill_null("").to_list()], dtype=pl.String)
+    return bands.with_columns(pl.when(lost).then(False).otherwise(pl.col("reported")).alias("reported"),
+                              pl.when(lost).then(why).otherwise(pl.col("reason")).alias("reason"))
 
 
 def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
@@ -97,7 +114,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
             f"segment length ({segments.length:.3g} m); use longer segments"))
     # Every candidate band is kept, with its reported flag and the reason when it is not reported.
-    bands = texture.bands
+    bands = within_file_sampling(texture.bands, raw.dx, dx, segments.length, options)
     band_count = bands.height
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(band_count, np.nan))

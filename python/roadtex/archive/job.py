@@ -239,12 +239,13 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
                "surface_examples": SURFACE_EXAMPLE_SCHEMA}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
+    estimates = run_estimates(manifest, parts["runs"], plan)
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
         metadata = parquet_metadata(TABLES[name])
         if files:
-            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan).select(
+            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
             write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
@@ -275,14 +276,36 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     return written
 
 
-def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFrame:
+def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan | None) -> tuple[pl.DataFrame, pl.DataFrame]:
+    """Each run's error estimates from its own pilot group (device, pavement, file sampling
+    interval), or the largest of any group when no pilot covered its group: per (run, band)
+    ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``."""
+    band_rows: list[tuple[str, int, float]] = []
+    run_rows: list[tuple[str, float | None, bool | None]] = []
+    if plan is not None and plan.budget_db is not None and run_files:
+        file_dx = dict(pl.scan_parquet(run_files, schema=RUN_RUN_SCHEMA).select("run_id", "file_dx").collect().iter_rows())
+        for run in manifest.iter_rows(named=True):
+            if run["run_id"] not in file_dx:
+                continue
+            group = plan.group_of(run, file_dx[run["run_id"]])
+            errors = plan.band_error_db if group is None else group.band_error_db
+            band_rows += [(run["run_id"], band, error) for band, error in errors.items() if np.isfinite(error)]
+            run_rows.append((run["run_id"], plan.worst_error_db if group is None else group.worst_error_db,
+                             plan.within_budget if group is None else group.within_budget))
+    bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64}, orient="row")
+    runs = pl.DataFrame(run_rows, schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean},
+                        orient="row")
+    return bands, runs
+
+
+def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
+              estimates: tuple[pl.DataFrame, pl.DataFrame]) -> pl.LazyFrame:
     """The plan's columns added to a combined table: each band row's error estimate, each run's
-    worst error, budget verdict, speed-up and time saved (null where the plan has none)."""
+    worst error and budget verdict (``estimates``, from :func:`run_estimates`), the speed-up and
+    time saved (null where the plan has none)."""
+    band_errors, run_verdicts = estimates
     if name == "bands":
-        errors = {} if plan is None else {b: e for b, e in plan.band_error_db.items() if np.isfinite(e)}
-        frame = pl.DataFrame({"band": list(errors), "level_error_db": list(errors.values())},
-                             schema={"band": pl.Int64, "level_error_db": pl.Float64})
-        joined = query.join(frame.lazy(), on="band", how="left", maintain_order="left")
+        joined = query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
         # the pilot measures the line model only: areal rows have no error estimate
         return joined.with_columns(pl.when(pl.col("model") == "areal").then(None)
                                    .otherwise(pl.col("level_error_db")).alias("level_error_db"))
@@ -291,9 +314,7 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None) -> pl.LazyFr
         # give the same bits): the saving as a share of the solver work; measured seconds are in
         # parameters.json and pilot.parquet.
         speedup = None if plan is None else plan.speedup
-        return query.with_columns(
-            pl.lit(None if plan is None else plan.worst_error_db, dtype=pl.Float64).alias("worst_level_error_db"),
-            pl.lit(None if plan is None else plan.within_budget, dtype=pl.Boolean).alias("within_budget"),
+        return query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left").with_columns(
             pl.lit(speedup, dtype=pl.Float64).alias("speedup"),
             pl.lit(None if not speedup else 1.0 - 1.0 / speedup, dtype=pl.Float64).alias("time_saved_fraction"))
     return query

@@ -10,7 +10,7 @@ import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.errors import ManifestError
-from roadtex.profiles.readers import read_profile
+from roadtex.profiles.readers import file_head, guess_format, read_profile
 
 #: File suffixes :func:`build_manifest` lists as profile files.
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
@@ -120,8 +120,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     processed as 3D surface runs) are listed, except
     hidden files and files named ``manifest*`` (a manifest kept beside its data). With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
-    device, direction) fills the manifest columns; a file that cannot be read is still listed,
-    so the job records why it fails.
+    device, direction) fills the manifest columns, and ``format`` is the one it was read as; a
+    file that cannot be read is still listed (``format`` null), so the job records why it fails.
 
     Returns:
         A manifest DataFrame with absolute paths; save it with ``write_csv`` and edit it freely.
@@ -140,6 +140,9 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
         if read_metadata and path.suffix.lower() != ".crg":   # a surface: its run reads it
             try:
                 metadata = read_profile(path).metadata
+                # the format the file was read as, so that runs.parquet says it (its metadata's
+                # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
+                row["format"] = guess_format(path, file_head(path))
             except Exception:  # listed anyway: the job records why it fails
                 metadata = {}
             for name in METADATA_COLUMNS:

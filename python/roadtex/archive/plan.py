@@ -11,7 +11,9 @@ run is processed, with the numerical error of every band level they give.
   few segments of up to :data:`PILOT_RUNS_PER_GROUP` runs spread over the group, measures how the
   levels converge with the interval and the tolerance and picks the cheapest setting within the
   budget. The job takes the finest interval and the tightest tolerance any group needs, so every
-  group stays within the budget, and states per band the largest error estimate of any group.
+  group stays within the budget. Each run's rows carry its own group's error estimates (a group is
+  a device, a pavement and a sampling interval); a run whose group had no pilot gets the largest
+  estimate of any group.
 - **Without a budget**: the given ``dx`` (or the finest nominal interval among a sample of the
   runs) and the given ``tol`` (or :data:`DEFAULT_TOL`), and no error estimate.
 """
@@ -29,6 +31,7 @@ import polars as pl
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
 from roadtex.budget import choose_setting
 from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
+from roadtex.profiles.plausibility import implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
 
@@ -36,6 +39,26 @@ from roadtex.profiles.readers import READ_OPTIONS, read_profile
 PILOT_RUNS_PER_GROUP = 3
 #: Runs read to find the finest interval when there is no budget (spread over the manifest).
 PLAN_SAMPLE_RUNS = 8
+
+
+@dataclass(frozen=True)
+class GroupError:
+    """One pilot's error estimates, for the runs of its group.
+
+    Attributes:
+        key: the (device, pavement) group, as :func:`group_key` writes it.
+        spacing: the runs' nominal sampling interval (m, two significant digits).
+        band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
+            that band for the group's runs at the job's setting.
+        worst_error_db: the largest of those in the budget bands (dB).
+        within_budget: whether that is within the budget.
+    """
+
+    key: str
+    spacing: float
+    band_error_db: dict[int, float]
+    worst_error_db: float
+    within_budget: bool
 
 
 @dataclass(frozen=True)
@@ -57,6 +80,7 @@ class JobPlan:
             the pilots' count: unlike the times, the machine's load does not change it).
         pilot_seconds: wall time of the pilots (s).
         groups: (device, pavement) groups and the runs each pilot read.
+        group_errors: each pilot's estimates by group name (the names of ``groups``).
     """
 
     dx: float
@@ -71,6 +95,15 @@ class JobPlan:
     speedup: float | None = None
     pilot_seconds: float = 0.0
     groups: dict[str, list[str]] = field(default_factory=dict)
+    group_errors: dict[str, GroupError] = field(default_factory=dict)
+
+    def group_of(self, run: dict[str, Any], file_dx: float | None) -> GroupError | None:
+        """The pilot group of a manifest row whose file is sampled at ``file_dx`` (m), or None
+        when no pilot covered its device, pavement and sampling interval."""
+        if file_dx is None or not np.isfinite(file_dx):
+            return None
+        key, spacing = group_key(run), float(f"{file_dx:.2g}")
+        return next((g for g in self.group_errors.values() if g.key == key and g.spacing == spacing), None)
 
     def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
         """``options`` with the plan's interval and tolerance filled in (what the runs are solved with)."""
@@ -78,7 +111,11 @@ class JobPlan:
 
     def summary(self) -> dict[str, Any]:
         """The plan as JSON-ready values (parameters.json)."""
-        return {**dataclasses.asdict(self), "band_error_db": {str(k): v for k, v in self.band_error_db.items()}}
+        as_dict = dataclasses.asdict(self)
+        as_dict["band_error_db"] = {str(k): v for k, v in self.band_error_db.items()}
+        for group in as_dict["group_errors"].values():
+            group["band_error_db"] = {str(k): v for k, v in group["band_error_db"].items()}
+        return as_dict
 
 
 def reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str, object]:
@@ -104,16 +141,18 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
 
 
 def readable(runs: list[dict[str, Any]], options: ProcessingOptions) -> list[tuple[dict[str, Any], Profile]]:
-    """The runs that can be read, with their profiles; a run that cannot is skipped here (its own
-    processing records why)."""
+    """The runs that can be read and are plausible road texture in metres, with their profiles; a
+    run that is not is skipped here (its own processing refuses it and records why)."""
     read = []
     for run in runs:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RoadtexWarning)
-                read.append((run, read_profile(run["path"], format=run.get("format"), **reader_options(run, options))))
+                profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
         except Exception:  # noqa: BLE001 - the run's own processing records the failure
             continue
+        if implausible_texture(profile.heights, profile.dx, str(run["path"])) is None:
+            read.append((run, profile))
     return read
 
 
@@ -133,7 +172,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     groups: dict[str, list[dict[str, Any]]] = {}
     for run in runs:
         groups.setdefault(group_key(run), []).append(run)
-    choices, studies, read_runs = [], [], {}
+    choices, studies, read_runs, group_errors = [], [], {}, {}
     for key, members in groups.items():
         # one pilot per sampling interval within the group (a pilot compares runs on one grid)
         by_dx: dict[float, list[tuple[dict[str, Any], Profile]]] = {}
@@ -152,6 +191,9 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                 continue
             choices.append(choice)
             read_runs[name] = [run["run_id"] for run, _ in read]
+            group_errors[name] = GroupError(key=key, spacing=spacing, band_error_db=dict(choice.band_error_db),
+                                            worst_error_db=float(choice.worst_error_db),
+                                            within_budget=bool(choice.within_budget))
             studies.append(choice.study.with_columns(
                 pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
     if not choices:
@@ -165,10 +207,11 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     within = all(c.within_budget for c in choices)
     worst = max(c.worst_error_db for c in choices)
     if not within:
+        missed = "; ".join(f"{name}: {g.worst_error_db:.3g} dB" for name, g in group_errors.items() if not g.within_budget)
         warnings.warn(
-            f"the error budget of {options.error_budget_db:g} dB cannot be met at the data's sampling: the smallest "
-            f"estimated error in the tyre/road noise bands is {worst:.3g} dB; the job runs at the cheapest setting "
-            "near that floor and states the error of every band (bands.parquet level_error_db)",
+            f"the error budget of {options.error_budget_db:g} dB cannot be met at the data's sampling of every group: "
+            f"the smallest estimated error in the tyre/road noise bands is {missed}; the job runs at the cheapest "
+            "setting near that floor and states the error of every band (bands.parquet level_error_db)",
             ErrorBudgetWarning, stacklevel=3)
     study = pl.concat(studies, how="diagonal_relaxed")
     per_group = study.group_by("group").agg(
@@ -180,7 +223,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
         finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
-        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs)
+        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors)
     return plan, study
 
 

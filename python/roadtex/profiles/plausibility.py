@@ -21,15 +21,26 @@ PLAUSIBLE_RMS = 0.25
 #: texture has median slopes well under 1 (pore walls and chip edges are few); heights in mm on a
 #: grid in m have slopes 1000 times the true ones, which also catches fine textures in mm.
 PLAUSIBLE_MEDIAN_SLOPE = 20.0
+#: Smallest rms height (m, line removed) of a measured road texture profile. Real surfaces, the
+#: smoothest concrete included, have rms heights of some 0.05 mm and more; heights written in mm
+#: but read as micrometres are 1000 times too small (0.05 to 3 um), below this floor.
+PLAUSIBLE_MIN_RMS = 10e-6
+#: Coarsest sampling interval (m) of a texture profile: texture profilometers sample at 1 mm or
+#: finer (ISO 13473-1). Distances in mm read as metres make dx 1000 times too coarse (10 mm to 1 m).
+PLAUSIBLE_MAX_DX = 5e-3
 
 
-def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment") -> str | None:
+def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment",
+                        measured: bool = True) -> str | None:
     """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
     cannot be a road texture profile in metres, or None.
 
     Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
     readings' spread only. Used by every function that takes heights (a warning) and by the bulk
-    job (which refuses the run).
+    job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it also
+    refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
+    a sampling too coarse for texture (dx above :data:`PLAUSIBLE_MAX_DX`: distances in mm read as
+    m); the solvers and spectra, which also take model problems, check the upper limits only.
     """
     rows = np.atleast_2d(np.asarray(heights, dtype=np.float64))
     n = rows.shape[1]
@@ -46,12 +57,23 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
             peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
             rms = np.sqrt(np.mean(detrended**2, axis=1))
             median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
-        bad = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
-               | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
+        large = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
+                 | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
+        small = (rms < PLAUSIBLE_MIN_RMS) & ~large if measured else np.zeros_like(large)
+    coarse = measured and dx > PLAUSIBLE_MAX_DX
+    bad = large | small | coarse
     if not bad.any():
         return None
     first = int(np.argmax(bad))
     where = f"{name} ({row} {first}, {int(bad.sum())} of {bad.size} {row}s)" if rows.shape[0] > 1 else name
+    if coarse and not large[first]:
+        return (f"{where}: a sampling interval of {dx:.3g} m is implausibly coarse for a road texture profile "
+                f"(roadtex expects at most {PLAUSIBLE_MAX_DX:g} m; texture profilometers sample at 1 mm or finer). "
+                "Distances must be in metres: were they given in millimetres?")
+    if small[first]:
+        return (f"{where}: rms height {rms[first]:.3g} m (linear trend removed) is implausibly small for a road "
+                f"texture profile (roadtex expects at least {PLAUSIBLE_MIN_RMS:g} m). Heights must be in metres: "
+                "were millimetres read as micrometres?")
     return (f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
             f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
             f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
@@ -59,9 +81,10 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
 
 
 def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3,
-                                row: str = "segment") -> None:
+                                row: str = "segment", measured: bool = False) -> None:
     """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
-    (see :func:`implausible_texture`; ``row`` names what a row is); the computation goes on as given."""
-    reason = implausible_texture(heights, dx, name, row=row)
+    (see :func:`implausible_texture`; ``row`` names what a row is; ``measured`` for a file read);
+    the computation goes on as given."""
+    reason = implausible_texture(heights, dx, name, row=row, measured=measured)
     if reason is not None:
         warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)

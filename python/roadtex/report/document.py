@@ -353,7 +353,9 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "<h2>Conditioning of each run</h2>",
         "<p>Sampling intervals (the file's, and the job's one dx for all runs) and solver tolerance, length read and trimmed away "
         "with the reference plates, share of readings that were drop-outs, spikes or outliers (replaced by "
-        "interpolation), and MPD (ISO 13473-1) with its validity; n/a where MPD is undefined.</p>",
+        "interpolation), and MPD (ISO 13473-1) with its validity; n/a where MPD is undefined. A 100 mm baseline is "
+        "valid when at most 10 % of its raw readings are drop-outs and at most 5 % spikes; MPD is valid when at "
+        "least half the baselines are (ISO 13473-1), so a run with many drop-outs gets no valid MPD.</p>",
         html_table(conditioning_table(results), classes="conditioning"),
         "<h2>Numerical error per band</h2>", budget_summary(results), error_table_section(results),
         "<h2>Figures</h2>", *sections,

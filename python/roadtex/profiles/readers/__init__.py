@@ -138,8 +138,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
     profile = Profile(heights, positions, dx_f, metadata, tuple(history))
-    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4)
+    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile"]

@@ -7,8 +7,7 @@ import re
 import numpy as np
 
 from roadtex.errors import ProfileFormatError
-from roadtex.profiles.readers.text import ReadResult, first_lines, parse_table, parse_value, split_column_name
-from roadtex.profiles.units import unit_factor
+from roadtex.profiles.readers.text import ReadResult, column_unit, first_lines, parse_table, parse_value
 
 #: The line that ends a CAPTIF file's metadata block.
 CAPTIF_MARKER = b"*****DATA*****"
@@ -32,8 +31,9 @@ def read_captif(data: bytes, name: str, options: dict) -> ReadResult:
     header = [h.strip() for h in lines[marker + 1].decode("utf-8", "replace").split("\t") if h.strip()]
     if len(header) < 3:
         raise ProfileFormatError(f"{name}: CAPTIF header line should name 3 columns (point, distance, height), got {header}")
-    distance_factor = unit_factor(split_column_name(header[1])[1] or "mm", f"the CAPTIF distance column {header[1]!r}")
-    height_factor = unit_factor(split_column_name(header[2])[1] or "mm", f"the CAPTIF height column {header[2]!r}")
+    # the header's units (mm), else the units given, else mm; a given unit never rescales a stated one
+    distance_factor = column_unit(header, 1, options.get("distance_unit"), "distance", source=name, default="mm")
+    height_factor = column_unit(header, 2, options.get("height_unit"), "height", source=name, default="mm")
     body = data[ends[marker + 1]:]
     if not body or body.isspace():
         raise ProfileFormatError(f"{name}: CAPTIF file has a header but no data rows")

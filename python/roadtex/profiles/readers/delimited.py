@@ -13,12 +13,14 @@ from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
     HEIGHT_NAMES,
     ReadResult,
+    check_units_given,
     column_unit,
     first_lines,
     parse_table,
     parse_value,
     pick_column,
 )
+from roadtex.profiles.units import UNITS
 
 #: The comment line tag under which :func:`roadtex.write_profile` stores metadata and history.
 ROADTEX_TAG = "roadtex-profile"
@@ -56,6 +58,57 @@ def is_number(text: str, decimal: str = ".") -> bool:
         return text.strip().lower() in ("nan", "", "na", "n/a", "null", "-")
 
 
+def is_number_row(line: bytes) -> bool:
+    """A line whose fields are all numbers (or drop-outs) under some delimiter: a data row."""
+    text = line.decode("utf-8", "replace").strip()
+    if not text:
+        return False
+    for separator in ("\t", ";", ","):
+        if separator in text:
+            fields = [f.strip().strip('"') for f in text.split(separator)]
+            decimal = "," if separator != "," else "."
+            if all(is_number(f, decimal) or is_number(f) for f in fields) and any(f.strip() for f in fields):
+                return True
+    return all(is_number(f) or is_number(f, ",") for f in text.split())
+
+
+def preamble_length(rest: list[bytes]) -> int:
+    """How many lines of ``rest`` come before the table's header line: a block of metadata lines
+    (``Site: A1``, ``Operator;J. Smith``, Excel's ``sep=;``) that instruments and spreadsheets
+    write without a comment mark. 0 when the table starts at once (a header line, or data, first):
+    the table's first data row is the first of three number rows in a row."""
+    rows = [i for i, line in enumerate(rest) if line.strip()]
+    for k in range(len(rows) - 2):
+        if all(is_number_row(rest[i]) for i in rows[k:k + 3]):
+            # the header is the last non-blank line before the data; the preamble is what precedes it
+            return rows[k - 1] if k >= 2 else 0
+    return 0
+
+
+def is_units_row(line: bytes) -> bool:
+    """A header line of units only (``mm;mm``, ``[m]\t[mm]``): the second of two header rows."""
+    fields = [f.strip().strip('"').strip("()[] ") for f in re.split(r"[\t;,]", line.decode("utf-8", "replace"))]
+    return any(fields) and all(f.lower() in UNITS or f in ("", "-") for f in fields)
+
+
+def preamble_metadata(lines: list[bytes]) -> tuple[dict[str, object], str | None]:
+    """The ``key: value`` (or ``=``, ``;``, tab) pairs of a metadata block, and Excel's ``sep=X`` delimiter."""
+    metadata: dict[str, object] = {}
+    separator = None
+    for line in lines:
+        text = line.decode("utf-8", "replace").strip()
+        hint = re.fullmatch(r"sep=(.)", text)
+        if hint:
+            separator = hint.group(1)
+            continue
+        parts = re.split(r"\s*[:=;\t]\s*", text, maxsplit=1)
+        if len(parts) == 2 and parts[0].strip() and parts[1].strip().strip(";,\t"):
+            key = re.sub(r"\W+", "_", parts[0].strip().lower()).strip("_")
+            if key:
+                metadata[key] = parse_value(parts[1].strip().strip(";,\t").strip('"'))
+    return metadata, separator
+
+
 def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     lines, ends = first_lines(data, 200)
     metadata: dict[str, object] = {}
@@ -85,6 +138,25 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     rest = lines[skip:]
     if not rest:
         raise ProfileFormatError(f"{name}: no data (only comments or blank lines)")
+    preamble = preamble_length(rest)
+    names_line = None
+    if preamble and is_units_row(rest[preamble]):
+        # two header rows, names then units ("Distance;Height" / "mm;mm"): the names are the
+        # last line before the units
+        names_at = max(i for i in range(preamble) if rest[i].strip())
+        names_line, preamble = rest[names_at], names_at
+    if preamble:
+        found, hint = preamble_metadata(rest[:preamble])
+        for key, value in found.items():
+            metadata.setdefault(key, value)
+        if hint is not None and not options.get("delimiter"):
+            options = {**options, "delimiter": hint}
+        history.append(f"{preamble} line(s) before the table's header read as metadata "
+                       f"({', '.join(found) or 'none recognised'})")
+    if names_line is not None:
+        preamble += 1       # the names line too: the units line stands as the header below
+    skip += preamble
+    rest = rest[preamble:]
     separator = options.get("delimiter") or sniff_separator(rest[:5])
     offset = ends[skip - 1] if skip else 0
     body = data[offset:]
@@ -103,8 +175,15 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if decimal not in (".", ","):
         raise ProfileFormatError(f"{name}: decimal must be '.' or ',', got {decimal!r}")
     if decimal == "," and separator == ",":
-        raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give delimiter=")
+        raise ProfileFormatError(f"{name}: a comma cannot be both the delimiter and the decimal mark; give the "
+                                 "delimiter (a read_profile option, manifest column or roadtex process --delimiter)")
     first = [f.strip().strip('"') for f in rest[0].decode("utf-8", "replace").split(separator)]
+    if names_line is not None:
+        units = first
+        first = [f.strip().strip('"') for f in names_line.decode("utf-8", "replace").split(separator)]
+        if len(first) != len(units):
+            raise ProfileFormatError(f"{name}: the header's names {first} and units {units} differ in number")
+        first = [f"{n} ({u.strip('()[] ')})" if u.strip("()[] ") else n for n, u in zip(first, units)]
     has_header = not all(is_number(f, decimal) for f in first)
     if has_header and len(rest) > 1:
         data_columns = len(rest[1].decode("utf-8", "replace").split(separator))
@@ -126,8 +205,15 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
             raise ProfileFormatError(f"{name}: the last line {last[:60].decode('utf-8', 'replace')!r} has fewer than "
                              f"{n_columns} fields and no line end: the file looks truncated")
     table, absent = parse_table(body, separator, n_columns, name, first_data_line - 1, decimal_comma=decimal == ",")
+    # Blank lines (or lines of bare delimiters, ";;") at the end, as spreadsheets leave them, are no rows.
+    blank = absent.all(axis=1)
+    last = table.shape[0] - int(np.argmin(blank[::-1])) if not blank.all() else 0
+    table, absent, blank = table[:last], absent[:last], blank[:last]
     if table.shape[0] == 0:
         raise ProfileFormatError(f"{name}: no data rows")
+    # The data row each table row came from (blank lines inside a table with a distance column
+    # are dropped below; in a heights-only table an empty line is a drop-out on the grid).
+    row_numbers = np.arange(table.shape[0])
     if has_header:
         h_index = pick_column(names, options.get("height_column"), HEIGHT_NAMES, "height", True)
         d_index = pick_column(names, options.get("distance_column"), DISTANCE_NAMES, "distance",
@@ -140,12 +226,17 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
             h_index = pick_column(names, 1 if h_given is None else h_given, (), "height", True)
             d_index = pick_column(names, 0 if d_given is None else d_given, (), "distance", False)
     assert h_index is not None
-    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height")
+    if d_index is not None and blank.any():
+        history.append(f"skipped {int(blank.sum())} blank line(s) inside the table")
+        table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
+    check_units_given(names, {"height": (h_index, options.get("height_unit")),
+                              "distance": (d_index, options.get("distance_unit"))})
+    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
     if d_index is not None:
         if absent[:, d_index].any():
-            row = int(np.flatnonzero(absent[:, d_index])[0])
+            row = int(row_numbers[np.flatnonzero(absent[:, d_index])[0]])
             raise ProfileFormatError(f"{name}: data row {row + 1} (line {first_data_line + row}) has no distance")
-        positions = table[:, d_index] * column_unit(names, d_index, options.get("distance_unit"), "distance")
+        positions = table[:, d_index] * column_unit(names, d_index, options.get("distance_unit"), "distance", source=name)
     else:
         positions = grid_positions(heights.size, options, name)
     metadata.setdefault("format", "csv")

@@ -10,6 +10,7 @@ from roadtex.errors import ProfileFormatError
 
 def grid_positions(n: int, options: dict, name: str) -> np.ndarray:
     if options.get("dx") is None:
-        raise ProfileFormatError(f"{name}: heights only (no distance column): give dx= (m)")
+        raise ProfileFormatError(f"{name}: heights only (no distance column): give dx, the sampling interval in m "
+                                 "(a read_profile option, the manifest column dx or roadtex process --input-dx)")
     dx = positive(options["dx"], "dx")
     return finite_number(options.get("start", 0.0), "start") + dx * np.arange(n)

@@ -43,8 +43,8 @@ def read_parquet(path: Path, name: str, options: dict) -> ReadResult:
             raise ProfileFormatError(f"{name}: column {names[index]!r} is {series.dtype}, not numeric")
         return series.cast(pl.Float64).fill_null(float("nan")).to_numpy()
 
-    heights = column(h_index) * column_unit(names, h_index, options.get("height_unit"), "height")
+    heights = column(h_index) * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
     if d_index is None:
         return grid_positions(heights.size, options, name), heights, metadata, history, options.get("dx")
-    positions = column(d_index) * column_unit(names, d_index, options.get("distance_unit"), "distance")
+    positions = column(d_index) * column_unit(names, d_index, options.get("distance_unit"), "distance", source=name)
     return positions, heights, metadata, history, options.get("dx")

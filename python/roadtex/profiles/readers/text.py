@@ -6,11 +6,12 @@ from __future__ import annotations
 import io
 import math
 import re
+import warnings
 
 import numpy as np
 import polars as pl
 
-from roadtex.errors import ProfileFormatError
+from roadtex.errors import ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.units import UNITS, unit_factor
 
 #: Column names (lower case, unit stripped) taken as the distance or height column when none is given.
@@ -99,18 +100,47 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
         if synonym in bases:
             return bases.index(synonym)
     if required:
-        hint = ", or give dx= (m) for evenly spaced heights" if what == "distance" else ""
-        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column={hint}")
+        hint = ", or give dx (m) for evenly spaced heights" if what == "distance" else ""
+        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column (a read_profile "
+                                 f"option or manifest column){hint}")
     return None
 
 
-def column_unit(names: list[str], index: int, given: str | None, what: str) -> float:
-    if given is not None:
-        return unit_factor(given, what)
-    unit = split_column_name(names[index])[1]
-    if unit is None:
-        raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit= ('m', 'mm', 'um', ...)")
-    return unit_factor(unit, f"the {what} column {names[index]!r}")
+#: Where a user gives a reader option: in Python, in the bulk job's manifest, on the command line.
+WHERE_OPTIONS = "read_profile option, manifest column or roadtex process --{flag}"
+
+
+def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]]) -> None:
+    """Refuses, naming every one at once, the columns (``what -> (index, unit given)``) whose unit
+    neither the header nor the options give: a number without its unit is never guessed."""
+    missing = [(what, names[index]) for what, (index, given) in columns.items()
+               if index is not None and given is None and split_column_name(names[index])[1] is None]
+    if missing:
+        columns_text = " and ".join(f"the {what} column {column!r}" for what, column in missing)
+        options = " and ".join(f"{what}_unit" for what, _ in missing)
+        flags = ", ".join(f"--{what}-unit" for what, _ in missing)
+        raise ProfileFormatError(f"no unit for {columns_text} (the file states none): give {options} ('m', 'mm', "
+                                 f"'um', ...) as a read_profile option, a manifest column or roadtex process {flags}")
+
+
+def column_unit(names: list[str], index: int, given: str | None, what: str, *, source: str = "file",
+                default: str | None = None) -> float:
+    """Factor to metres of a column: the unit its header states; else the unit given, else
+    ``default``. A given unit that disagrees with the header's is ignored with a
+    :class:`UnitConflictWarning` (``source`` names the file): a job-wide ``--height-unit`` is for
+    files whose header states none, and must not rescale the others."""
+    stated = split_column_name(names[index])[1]
+    if stated is None:
+        if given is None and default is None:
+            raise ProfileFormatError(f"no unit for the {what} column {names[index]!r}: give {what}_unit ('m', 'mm', "
+                                     f"'um', ...; {WHERE_OPTIONS.format(flag=what + '-unit')})")
+        return unit_factor(given if given is not None else default, what)  # type: ignore[arg-type]
+    factor = unit_factor(stated, f"the {what} column {names[index]!r}")
+    if given is not None and unit_factor(given, what) != factor:
+        warnings.warn(f"{source}: the {what} column {names[index]!r} states its unit, {stated}; the {what}_unit "
+                      f"{given!r} given is ignored for it (a given unit applies where the header states none)",
+                      UnitConflictWarning, stacklevel=5)   # the caller of read_profile
+    return factor
 
 
 def nominal_dx(positions: np.ndarray) -> float:
@@ -161,11 +191,32 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
         # BaseException, so it is named here to be reported as what it is, a bad file.
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        where = first_bad_line(data, separator, decimal_comma)
+        if where is not None:
+            index, line = where
+            message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {line[:80]!r} ({message})"
         raise ProfileFormatError(f"{name}: cannot read the numbers after line {first_line}: {message}") from None
     missing = np.column_stack([frame.get_column(c).is_null().to_numpy() for c in frame.columns]) \
         if frame.height else np.zeros((0, n_columns), dtype=bool)
     table = frame.to_numpy().astype(np.float64, copy=False).reshape(frame.height, n_columns)
     return table, missing
+
+
+def first_bad_line(data: bytes, separator: str, decimal_comma: bool) -> tuple[int, str] | None:
+    """The first line (0-based, and its text) of a table that holds a field that is not a number
+    or a drop-out: where a parse failed, for the message (slow; only on the failure path)."""
+    missing = {"", "na", "n/a", "null", "-", "nan"}
+    for index, raw in enumerate(data.split(b"\n")):
+        line = raw.decode("utf-8", "replace").rstrip("\r")
+        for field in line.split(separator):
+            text = field.strip().strip('"')
+            if text.lower() in missing:
+                continue
+            try:
+                float(text.replace(",", ".") if decimal_comma else text)
+            except ValueError:
+                return index, line
+    return None
 
 
 def first_lines(data: bytes, count: int) -> tuple[list[bytes], list[int]]:
