@@ -11,6 +11,7 @@ from roadtex.errors import ProfileFormatError
 from roadtex.profiles.readers.grid import grid_positions
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
+    DROPOUT_TOKENS,
     HEIGHT_NAMES,
     ReadResult,
     check_units_given,
@@ -55,7 +56,7 @@ def is_number(text: str, decimal: str = ".") -> bool:
         float(text.replace(",", ".") if decimal == "," else text)
         return True
     except ValueError:
-        return text.strip().lower() in ("nan", "", "na", "n/a", "null", "-")
+        return text.strip().lower() in DROPOUT_TOKENS
 
 
 def is_number_row(line: bytes) -> bool:

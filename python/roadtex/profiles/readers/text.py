@@ -14,6 +14,9 @@ import polars as pl
 from roadtex.errors import ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.units import UNITS, unit_factor
 
+#: Fields (lower case, stripped) that mark a missing reading rather than a bad number.
+DROPOUT_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "-"})
+
 #: Column names (lower case, unit stripped) taken as the distance or height column when none is given.
 DISTANCE_NAMES = ("distance", "dist", "position", "pos", "x", "chainage", "station", "s",
                   "longitudinal_position", "location")
@@ -205,12 +208,11 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
 def first_bad_line(data: bytes, separator: str, decimal_comma: bool) -> tuple[int, str] | None:
     """The first line (0-based, and its text) of a table that holds a field that is not a number
     or a drop-out: where a parse failed, for the message (slow; only on the failure path)."""
-    missing = {"", "na", "n/a", "null", "-", "nan"}
     for index, raw in enumerate(data.split(b"\n")):
         line = raw.decode("utf-8", "replace").rstrip("\r")
         for field in line.split(separator):
             text = field.strip().strip('"')
-            if text.lower() in missing:
+            if text.lower() in DROPOUT_TOKENS:
                 continue
             try:
                 float(text.replace(",", ".") if decimal_comma else text)
