@@ -11,7 +11,8 @@
 //! `best/best` is their ratio.
 //!
 //! * `road`: 64 road-like segments of N = 1,000 (0.5 m at 0.5 mm, self-affine, seeds 0..64), each
-//!   under E = 1, 2, 5, 10 MPa (nu 0.5, P = 0.2 MPa) in that order, warm-started from the last,
+//!   under E = 1, 2, 5, 10 MPa (nu 0.5, P = 0.2 MPa) in that order, warm-started from the last
+//!   (its pressure shifted for the stiffer rubber, `continuation::next_modulus_guess`, as the job does),
 //!   tol 1e-6 (the bulk job's unit of work). Targets: at most 40 pairs per solve.
 //! * `self-affine 2^16` (and 2^20 with `--large`): Hurst 0.8, rms slope 0.1, L = 1, E* = 1,
 //!   P = 0.0105, cutoff 0.25, seed 1, tol 1e-8, cold start. Targets: 150 and 600 pairs.
@@ -25,6 +26,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use realfft::RealFftPlanner;
+use roadtex::continuation::next_modulus_guess;
 use roadtex::solver::{ContactSolution, ContactSolver, Material, SolverOptions, Workspace};
 use roadtex::synthetic::self_affine;
 
@@ -170,8 +172,10 @@ fn road(repeats: usize) -> Measured {
         let mut out = Vec::with_capacity(passes * profiles.len() * moduli.len());
         for heights in std::iter::repeat(&profiles).take(passes).flatten() {
             let mut previous: Option<Vec<f64>> = None;
-            for &rubber in &rubbers {
-                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, previous.as_deref()).expect("solve");
+            for (m, &rubber) in rubbers.iter().enumerate() {
+                // As the bulk job does (batch::solve_many): the last pressure shifted for a stiffer rubber.
+                let guess = previous.as_deref().map(|p| next_modulus_guess(p, rubbers[m - 1], rubber));
+                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, guess.as_deref()).expect("solve");
                 previous = sol.converged.then(|| sol.pressure.clone());
                 out.push(sol);
             }

@@ -4,6 +4,7 @@
 
 use rayon::prelude::*;
 
+use crate::continuation::next_modulus_guess;
 use crate::error::{invalid, ContactError, Result};
 use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, SolverOptions, Workspace};
 
@@ -38,8 +39,8 @@ fn in_problem(error: ContactError, segment: usize, material: Material) -> Contac
 /// `segment * moduli.len() + modulus`. `threads = None` uses rayon's global pool.
 ///
 /// With `warm_start`, each segment's moduli are solved in the order given, each CG solve starting
-/// from the previous modulus's converged solution (see [`ContactSolver::solve_from`]): fewer
-/// sweeps, results within the tolerance of cold solves and still bitwise the same whatever the
+/// from the previous modulus's converged solution (see [`ContactSolver::solve_from`]; shifted
+/// down to a smaller contact set for a stiffer rubber, [`next_modulus_guess`]): fewer sweeps, results within the tolerance of cold solves and still bitwise the same whatever the
 /// thread count. Without it every result is bitwise that of a one-by-one solve.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_many(
@@ -74,9 +75,10 @@ pub fn solve_many(
                 .into_par_iter()
                 .map_init(Workspace::default, |workspace, s| {
                     let mut chain: Vec<ContactSolution> = Vec::with_capacity(materials.len());
-                    for &material in &materials {
-                        let previous = chain.last().filter(|c| c.converged).map(|c| c.pressure.as_slice());
-                        let solution = solver.solve_from(workspace, segments.row(s), material, mean_pressure, previous);
+                    for (m, &material) in materials.iter().enumerate() {
+                        let guess =
+                            chain.last().filter(|c| c.converged).map(|c| next_modulus_guess(&c.pressure, materials[m - 1], material));
+                        let solution = solver.solve_from(workspace, segments.row(s), material, mean_pressure, guess.as_deref());
                         chain.push(solution.map_err(|e| in_problem(e, s, material))?);
                     }
                     Ok(chain)

@@ -16,6 +16,7 @@
 pub mod batch;
 pub mod clapp;
 pub mod compliance;
+pub mod continuation;
 pub mod envelope;
 pub mod error;
 pub mod kernel;

@@ -16,6 +16,7 @@ use self::compliance::{SurfaceFinite, SurfaceFiniteScratch, SurfacePeriodic};
 use self::fft::Circulant2Scratch;
 pub use self::kernel::Grid;
 use crate::compliance::Compliance;
+use crate::continuation::next_modulus_guess;
 use crate::error::{invalid, ContactError, Result};
 use crate::solver::{
     cg, check_magnitude, check_solution, check_strain, direct, ContactSolution, Material, Method, SolverOptions, MAGNITUDE_LIMIT,
@@ -248,7 +249,8 @@ pub fn solve_surface(
 /// Every (tile, modulus) pair of a stack of tiles (tile after tile, each row-major ny x nx), in
 /// parallel on rayon; results tile-major (`tile * moduli.len() + modulus`). Each problem is solved
 /// by the same sequential code, so results are bitwise identical whatever the thread count. With
-/// `warm_start`, each tile's moduli are solved in order, each from the previous solution.
+/// `warm_start`, each tile's moduli are solved in order, each from the previous solution (shifted
+/// down to a smaller contact set for a stiffer rubber: [`next_modulus_guess`]).
 #[allow(clippy::too_many_arguments)]
 pub fn solve_surfaces(
     tiles: &[f64],
@@ -284,9 +286,10 @@ pub fn solve_surfaces(
                 .into_par_iter()
                 .map_init(SurfaceWorkspace::default, |workspace, t| {
                     let mut chain: Vec<ContactSolution> = Vec::with_capacity(materials.len());
-                    for material in &materials {
-                        let previous = chain.last().filter(|c| c.converged).map(|c| c.pressure.as_slice());
-                        let solution = solver.solve_from(workspace, tile(t), *material, mean_pressure, previous);
+                    for (m, material) in materials.iter().enumerate() {
+                        let guess =
+                            chain.last().filter(|c| c.converged).map(|c| next_modulus_guess(&c.pressure, materials[m - 1], *material));
+                        let solution = solver.solve_from(workspace, tile(t), *material, mean_pressure, guess.as_deref());
                         chain.push(solution.map_err(|e| named(e, t, material))?);
                     }
                     Ok(chain)
