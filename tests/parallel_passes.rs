@@ -1,12 +1,13 @@
 //! Vectors of 2^17 points or more are reduced in parallel blocks fixed by N (`solver::reduce`):
 //! a solve there must give the same bits on one thread and on several, for profiles and surfaces,
-//! and still agree with the closed-form limit it must reach.
+//! and still agree with the closed-form solution it must reach (Westergaard's wavy surface).
 
 use roadtex::batch::{solve_many, Segments};
+use roadtex::reference::Westergaard;
 use roadtex::surface::synthetic::self_affine_surface;
 use roadtex::surface::{solve_surfaces, Grid};
 use roadtex::synthetic::self_affine;
-use roadtex::SolverOptions;
+use roadtex::{Material, SolverOptions};
 
 #[test]
 fn long_profiles_give_the_same_bits_on_one_and_two_threads() {
@@ -24,6 +25,28 @@ fn long_profiles_give_the_same_bits_on_one_and_two_threads() {
         let mean = solution.pressure.iter().sum::<f64>() / n as f64;
         assert!((mean / 2e5 - 1.0).abs() < 1e-9, "{mean}");
     }
+}
+
+#[test]
+fn a_long_wavy_profile_reaches_westergaards_pressure_on_one_and_two_threads() {
+    // 2^17 points over 16 wavelengths of 2 cm (8,192 elements per wavelength), half the pressure
+    // of complete contact: the parallel passes must leave the element-mean closed form intact.
+    let (n, waves, wavelength, amplitude) = (1usize << 17, 16, 0.02, 1e-4);
+    let dx = waves as f64 * wavelength / n as f64;
+    let rubber = Material::new(2.5e6, 0.5).unwrap();
+    let base = Westergaard { amplitude, wavelength, plane_strain_modulus: rubber.plane_strain_modulus(), mean_pressure: 1.0 };
+    let exact = Westergaard { mean_pressure: 0.5 * base.full_contact_pressure(), ..base };
+    let x: Vec<f64> = (0..n).map(|i| i as f64 * dx).collect();
+    let heights: Vec<f64> = x.iter().map(|&x| amplitude * (2.0 * std::f64::consts::PI * x / wavelength).cos()).collect();
+    let segments = Segments { heights: &heights, len: n };
+    let options = SolverOptions { tol: 1e-10, ..Default::default() };
+    let one = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(1), false).unwrap();
+    let two = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(2), false).unwrap();
+    assert_eq!(one, two);
+    assert!(one[0].converged);
+    let exact_p: Vec<f64> = x.iter().map(|&x| exact.element_pressure(x, dx)).collect();
+    let l1 = one[0].pressure.iter().zip(&exact_p).map(|(p, q)| (p - q).abs()).sum::<f64>() / exact_p.iter().sum::<f64>();
+    assert!(l1 < 1e-5, "L1 pressure error {l1:e} against Westergaard");
 }
 
 #[test]
