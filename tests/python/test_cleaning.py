@@ -144,3 +144,27 @@ def test_line_fits_are_the_same_bits_for_a_block_and_for_each_row() -> None:
     for i in (0, 17, 63):
         single, _ = remove_lines(rows[i])
         assert np.array_equal(block[i], single)
+
+
+def test_mpd_takes_dropout_codes_as_dropouts_not_as_texture() -> None:
+    """A run of -850 mm codes is the device's "no reading": ISO 13473-1's spike test flags only its
+    edges, so MPD would take the code as a 850 mm deep valley."""
+    p = road(0.05e-3, 1.0, seed=3)
+    clean_mpd = roadtex.mpd(p)
+    z = p.heights.copy()
+    z[5000:5060] = -0.85     # 3 mm of codes, within one 100 mm baseline
+    coded = roadtex.mpd(Profile(z, p.positions, p.dx))
+    assert coded.mpd == pytest.approx(clean_mpd.mpd, rel=0.02), (coded.mpd, clean_mpd.mpd)
+    assert coded.is_valid and coded.valid_segments == clean_mpd.valid_segments
+    assert coded.segments["dropout_fraction"].max() == pytest.approx(60 / 2000)
+    assert any("drop-out codes" in step for step in coded.profile.history)
+
+
+def test_dropout_codes_do_not_make_a_file_look_like_the_wrong_unit() -> None:
+    """Heights in metres with a few -9999 codes: the unit is right, nothing to warn about."""
+    p = road(0.5e-3, 1.0)
+    z = p.heights.copy()
+    z[[100, 700, 1300, 1900]] = -9.999
+    from roadtex.profiles.plausibility import implausible_texture
+    assert implausible_texture(z, p.dx, "coded.csv", measured=True) is None
+    assert implausible_texture(z * 1e3, p.dx, "mm.csv", measured=True) is not None  # mm read as m

@@ -288,3 +288,25 @@ def test_a_decimal_comma_forced_on_a_comma_separated_file_says_where_to_give_the
     path.write_text("distance (mm),height (mm)\n" + table(x, z, ",", comma=False))
     with pytest.raises(ProfileFormatError, match=r"points\.csv: a comma cannot be both .*roadtex process --delimiter"):
         roadtex.read_profile(path, decimal=",")
+
+
+def test_a_file_with_numeric_dropout_codes_is_processed_and_its_codes_counted(tmp_path: Path) -> None:
+    """A profilometer writes -9999 (mm) where it had no reading. The run must not be refused as a
+    unit mistake, its codes must be counted as outliers, and its MPD must be that of the road."""
+    road = roadtex.synthetic_pavement("dense_asphalt", 0.6, 0.5e-3, seed=2)
+    x_mm, z_mm = road.positions * 1e3, road.heights * 1e3
+    coded = z_mm.copy()
+    coded[[150, 420, 777, 1010]] = -9999.0
+    for name, heights in (("clean.csv", z_mm), ("coded.csv", coded)):
+        (tmp_path / name).write_text("distance (mm);height (mm)\n" + table(x_mm, heights, comma=False))
+    manifest = tmp_path / "manifest.csv"
+    pl.DataFrame({"path": ["clean.csv", "coded.csv"]}).write_csv(manifest)
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.25, error_budget_db=None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleTextureWarning)
+        summary = roadtex.process(manifest, tmp_path / "out", options, quiet=True)
+    assert summary.failed_on_record == 0, pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet").sort("path")
+    clean, coded_run = runs.row(0, named=True), runs.row(1, named=True)
+    assert coded_run["outlier_fraction"] == pytest.approx(4 / road.heights.size)
+    assert coded_run["mpd"] == pytest.approx(clean["mpd"], rel=0.02)

@@ -239,14 +239,24 @@ def spike_mask(profile: Profile, alpha: float) -> np.ndarray:
     return valid & (np.abs(z - local) >= alpha_f * SPIKE_WINDOW)
 
 
-def outlier_mask(profile: Profile) -> np.ndarray:
-    """Readings far outside the run's own height range (see :data:`OUTLIER_SIGMAS`), True = outlier."""
-    z = profile.heights
-    median = float(np.nanmedian(z))
-    spread = 1.4826 * float(np.nanmedian(np.abs(z - median)))
-    limit = max(OUTLIER_SIGMAS * spread, OUTLIER_MIN_DISTANCE)
+def gross_outliers(heights: np.ndarray) -> np.ndarray:
+    """Readings (m) far outside their row's own height range, True = outlier: drop-out codes such
+    as -850 mm, further than :data:`OUTLIER_SIGMAS` robust standard deviations (and
+    :data:`OUTLIER_MIN_DISTANCE`) from the row's median. Rows are along the last axis; NaN is
+    never an outlier."""
+    z = np.asarray(heights, dtype=np.float64)
+    # A row with no valid reading has no median: judged against 0, its NaNs are never outliers.
+    rows = np.where(np.isfinite(z).any(axis=-1, keepdims=True), z, 0.0)
+    median = np.nanmedian(rows, axis=-1, keepdims=True)
+    spread = 1.4826 * np.nanmedian(np.abs(rows - median), axis=-1, keepdims=True)
+    limit = np.maximum(OUTLIER_SIGMAS * spread, OUTLIER_MIN_DISTANCE)
     with np.errstate(invalid="ignore"):
         return np.abs(z - median) > limit
+
+
+def outlier_mask(profile: Profile) -> np.ndarray:
+    """Readings far outside the run's own height range (:func:`gross_outliers`), True = outlier."""
+    return gross_outliers(profile.heights)
 
 
 def clean(profile: Profile, *, spike_alpha: float | None = 3.0, trim_plates: bool = True,

@@ -10,7 +10,7 @@ import polars as pl
 
 from roadtex._checks import fraction, positive
 from roadtex.errors import InvalidInputError
-from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.conditioning import format_number, outlier_mask
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.trend import remove_lines
@@ -66,7 +66,10 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     The chain, in the standard's order:
 
     1. ``trim_plates``: cut reference plates (:meth:`Profile.trim_reference_plates`; nothing
-       happens where there are none). Drop-outs are counted on the trimmed raw readings.
+       happens where there are none). Readings far outside the run's own height range are the
+       device's drop-out codes (such as -850 mm; :func:`~roadtex.profiles.conditioning.outlier_mask`)
+       and become drop-outs: the standard's spike test would flag only the edges of a run of
+       them. Drop-outs are counted on the trimmed raw readings.
     2. Resample to ``sample_spacing`` (0.5 mm; ISO allows 0.5 or 1 mm) by averaging the valid
        readings in each interval, starting at the profile's left edge.
     3. Spikes (Annex E): a jump between adjacent resampled samples of at least
@@ -129,6 +132,10 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         raise InvalidInputError(f"segment_length {seg_length:g} m must be a whole number (>= 4) of sample_spacing {spacing:g} m")
 
     raw = profile.trim_reference_plates() if trim_plates else profile
+    codes = outlier_mask(raw)
+    if codes.any():
+        raw = raw.derive(np.where(codes, np.nan, raw.heights),
+                         step=f"mpd: {int(codes.sum())} gross outliers (drop-out codes) taken as drop-outs")
     resampled = raw.resample(spacing)
     n_segments = resampled.heights.size // points
     if n_segments < 1:

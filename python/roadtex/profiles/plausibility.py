@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 
 from roadtex.errors import ImplausibleTextureWarning
+from roadtex.profiles.conditioning import gross_outliers
 from roadtex.profiles.trend import remove_lines
 
 PLAUSIBLE_PEAK_TO_VALLEY = 1.0
@@ -35,14 +36,20 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
     cannot be a road texture profile in metres, or None.
 
-    Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
-    readings' spread only. Used by every function that takes heights (a warning) and by the bulk
+    Looks at each row with its least-squares line removed; drop-out codes (readings far outside
+    the row's own range, :func:`~roadtex.profiles.conditioning.gross_outliers`) are left out, and
+    rows with NaN are judged on their valid readings' spread only. Used by every function that takes heights (a warning) and by the bulk
     job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it also
     refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
     a sampling too coarse for texture (dx above :data:`PLAUSIBLE_MAX_DX`: distances in mm read as
     m); the solvers and spectra, which also take model problems, check the upper limits only.
     """
     rows = np.atleast_2d(np.asarray(heights, dtype=np.float64))
+    # Drop-out codes (a -850 mm reading among mm of texture) say nothing about the unit: judged
+    # without them, as the job cleans them out before anything else.
+    codes = gross_outliers(rows)
+    if codes.any():
+        rows = np.where(codes, np.nan, rows)
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
         return None
