@@ -35,7 +35,7 @@ def process_command(args: argparse.Namespace) -> int:
 
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
     from roadtex.archive.options import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
-    from roadtex.errors import ImplausibleParameterWarning
+    from roadtex.errors import ImplausibleParameterWarning, MissingDependencyError
 
     if args.quiet:
         logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
@@ -67,7 +67,7 @@ def process_command(args: argparse.Namespace) -> int:
             summary = process(args.manifest, args.out, options, engine=args.engine, scheduler=args.scheduler,
                               workers=args.workers, threads=args.threads, quiet=args.quiet, force=args.force,
                               retry_failed=args.retry_failed)
-    except (ManifestError, ArchiveWriteError, ValueError) as exc:
+    except (ManifestError, ArchiveWriteError, MissingDependencyError, ValueError) as exc:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
     print(f"roadtex process: {summary}")
@@ -90,8 +90,9 @@ UPSAMPLED_RATIO = 1.5
 def upsampled_runs(runs_table: Path | None) -> str | None:
     """What to tell the user when some runs' files were sampled more coarsely than the job's one
     interval (runs.parquet ``file_dx`` against ``dx_used``), or None. Such a run is upsampled,
-    each reading repeated over its interval: its contact measures and short-wavelength levels are
-    those of a staircase, not comparable with the finer runs of the same job."""
+    interpolated linearly between its readings: its contact measures and short-wavelength levels
+    are those of straight chords between the readings, not comparable with the finer runs of the
+    same job."""
     import polars as pl
 
     if runs_table is None or not Path(runs_table).is_file():
@@ -104,7 +105,8 @@ def upsampled_runs(runs_table: Path | None) -> str | None:
     more = f" and {coarse.height - 3} more" if coarse.height > 3 else ""
     return (f"{coarse.height} run(s) were sampled more coarsely than the job's interval of "
             f"{coarse['dx_used'][0] * 1e3:.3g} mm and were upsampled to it: {examples}{more}. Their contact "
-            "measures and short-wavelength levels describe the file's staircase, not the road, and differ from "
+            "measures and short-wavelength levels describe straight chords between the file's readings, not the "
+            "road, and differ from "
             "a finer file of the same road; process runs of different sampling in separate jobs, or pass "
             "--dx at the coarsest interval (runs.parquet: file_dx, dx_used).")
 

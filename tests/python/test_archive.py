@@ -327,6 +327,17 @@ def test_dask_engine_gives_the_same_tables_as_the_local_engine(tmp_path: Path, a
                            pl.read_parquet(reference / f"{name}.parquet"))
 
 
+def test_cli_without_dask_installed_says_which_extra_to_install(tmp_path: Path, archive: Path,
+                                                               monkeypatch: pytest.MonkeyPatch,
+                                                               capsys: pytest.CaptureFixture) -> None:
+    """--engine dask on a machine without dask.distributed: exit 2 and the extra to install, no traceback."""
+    from roadtex.cli import main
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    assert main(["process", str(archive), "--out", str(tmp_path / "out"), "--engine", "dask", "--quiet"]) == 2
+    assert "roadtex[dask]" in capsys.readouterr().err
+
+
 def test_cli_process_runs_end_to_end_and_reports_failures_by_exit_code(tmp_path: Path, archive: Path) -> None:
     done = subprocess.run(_job(archive, tmp_path / "out"), capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

@@ -174,7 +174,7 @@ def test_the_manifest_names_the_format_each_file_was_read_as(tmp_path: Path, cap
 
 def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     """A colleague's file at 1 mm among 0.25 mm runs is upsampled to 0.25 mm (the job's one
-    interval): a staircase whose contact differs from the same road's fine file. The command
+    interval), interpolated linearly between its readings: its contact differs from the same road's fine file. The command
     line says so, and its advice (--dx at the coarsest interval) makes the two files agree."""
     from roadtex.cli import main
 
