@@ -5,10 +5,60 @@ naming the argument."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from roadtex.errors import InvalidInputError
+from roadtex.errors import ImplausibleParameterWarning, InvalidInputError
+
+#: Plausible rubber Young's moduli (Pa): tyre tread compounds are 1 to 10 MPa; this leaves a
+#: decade either side. Outside it, a modulus is taken for a unit mistake (MPa given as Pa, ...).
+PLAUSIBLE_MODULUS = (1e5, 1e8)
+#: Plausible mean contact pressures (Pa): car tyres are inflated to about 0.2 MPa, trucks to about
+#: 0.9 MPa; this leaves room either side.
+PLAUSIBLE_PRESSURE = (2e4, 3e6)
+#: The solvers, which also take model problems (Westergaard at a few kPa, a gel, a stiff wheel),
+#: warn only outside these wider ranges (Pa), where no rubber-on-road problem lies: a modulus or
+#: pressure in MPa given as Pa (E = 2.5, P = 0.2) or in Pa given as MPa.
+SOLVER_PLAUSIBLE_MODULUS = (1e4, 1e10)
+SOLVER_PLAUSIBLE_PRESSURE = (1e2, 1e8)
+
+
+def implausible_parameter(value: float, name: str, plausible: tuple[float, float]) -> str | None:
+    """Why ``value`` (Pa) is implausible for ``name``, or None."""
+    low, high = plausible
+    if low <= value <= high:
+        return None
+    return (f"{name} = {value:.4g} Pa is outside the plausible range {low / 1e6:g} to {high / 1e6:g} MPa "
+            f"({value / 1e6:.4g} MPa): is it in the wrong unit?")
+
+
+def warn_if_implausible_parameter(value: float, name: str, plausible: tuple[float, float], *,
+                                  stacklevel: int = 4) -> None:
+    """Warns (:class:`ImplausibleParameterWarning`) when ``value`` (Pa) is outside ``plausible``.
+    Values the solvers refuse anyway (not positive, not finite) are left to their error."""
+    if not (math.isfinite(value) and value > 0):
+        return
+    reason = implausible_parameter(value, name, plausible)
+    if reason is not None:
+        warnings.warn(reason + " Computing as given (for a dimensionless model problem, silence "
+                      "roadtex.ImplausibleParameterWarning).", ImplausibleParameterWarning, stacklevel=stacklevel)
+
+
+def warn_if_implausible_rubber(youngs_moduli: object, mean_pressure: float) -> None:
+    """The solvers' unit check on their rubber and load: warns once for the first modulus (Pa)
+    and for the mean pressure (Pa) outside :data:`SOLVER_PLAUSIBLE_MODULUS` /
+    :data:`SOLVER_PLAUSIBLE_PRESSURE`, pointing at the caller of the public function that called
+    this."""
+    try:
+        moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64)).ravel()
+    except (TypeError, ValueError):
+        return  # the argument checks name it
+    odd = [e for e in moduli if implausible_parameter(e, "youngs_modulus", SOLVER_PLAUSIBLE_MODULUS) is not None
+           and math.isfinite(e) and e > 0]
+    if odd:
+        warn_if_implausible_parameter(float(odd[0]), "youngs_modulus", SOLVER_PLAUSIBLE_MODULUS)
+    warn_if_implausible_parameter(float(mean_pressure), "mean_pressure", SOLVER_PLAUSIBLE_PRESSURE)
 
 
 def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:

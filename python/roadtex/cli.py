@@ -33,8 +33,8 @@ def process_command(args: argparse.Namespace) -> int:
     import logging
     import warnings
 
+    from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
-    from roadtex.archive.options import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.errors import ImplausibleParameterWarning, MissingDependencyError
 
     if args.quiet:

@@ -5,6 +5,8 @@ Every bad input must raise ValueError with a message that names the argument and
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -201,3 +203,25 @@ def test_contact_many_nonconvergence():
     assert not batch.converged.any()
     assert np.all(batch.iterations == 1), f"max_iterations=1 but iterations {batch.iterations.tolist()}"
     assert np.all(batch.residual > 1e-10)
+
+
+@pytest.mark.parametrize("call", ["contact", "contact_many", "contact_surface", "clapp"])
+def test_moduli_and_pressures_in_mpa_are_warned_about_in_every_solver(call: str) -> None:
+    """E = 2.5 and P = 0.2 (MPa given where Pa are expected): each solver warns, naming the value."""
+    from roadtex.errors import ImplausibleParameterWarning
+
+    z = roadtex.synthetic_pavement("dense_asphalt", 0.064, 0.5e-3, seed=1).heights
+    solvers = {
+        "contact": lambda e, p: roadtex.contact(z, 0.5e-3, e, p),
+        "contact_many": lambda e, p: roadtex.contact_many(z[None, :], 0.5e-3, [e], p),
+        "contact_surface": lambda e, p: roadtex.contact_surface(np.tile(z[:32], (8, 1)), 0.5e-3,
+                                                                youngs_modulus=e, mean_pressure=p),
+        "clapp": lambda e, p: roadtex.clapp(z, 0.5e-3, e, p),
+    }
+    with pytest.warns(ImplausibleParameterWarning, match="youngs_modulus = 2.5 Pa"):
+        solvers[call](2.5, 2e5)
+    with pytest.warns(ImplausibleParameterWarning, match="mean_pressure = 0.2 Pa"):
+        solvers[call](2.5e6, 0.2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleParameterWarning)
+        solvers[call](2.5e6, 2e5)  # plausible: silent

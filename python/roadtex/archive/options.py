@@ -5,41 +5,27 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from roadtex._checks import finite_number, poisson_ratio, positive, positive_int
+from roadtex._checks import (
+    PLAUSIBLE_MODULUS,
+    PLAUSIBLE_PRESSURE,
+    finite_number,
+    poisson_ratio,
+    positive,
+    positive_int,
+    warn_if_implausible_parameter,
+)
 from roadtex._core import __version__
 from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
-from roadtex.errors import ImplausibleParameterWarning, InvalidInputError
+from roadtex.errors import InvalidInputError
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.spectra.bands import check_band_kind
 
 #: Solver tolerance without an error budget (relative residual).
 DEFAULT_TOL = 1e-6
-#: Plausible rubber Young's moduli (Pa): tyre tread compounds are 1 to 10 MPa; this leaves a
-#: decade either side. Outside it, a modulus is taken for a unit mistake (MPa given as Pa, ...).
-PLAUSIBLE_MODULUS = (1e5, 1e8)
-#: Plausible mean contact pressures (Pa): car tyres are inflated to about 0.2 MPa, trucks to about
-#: 0.9 MPa; this leaves room either side.
-PLAUSIBLE_PRESSURE = (2e4, 3e6)
-
-
-def implausible_parameter(value: float, name: str, plausible: tuple[float, float]) -> str | None:
-    """Why ``value`` (Pa) is implausible for ``name``, or None."""
-    low, high = plausible
-    if low <= value <= high:
-        return None
-    return (f"{name} = {value:.4g} Pa is outside the plausible range {low / 1e6:g} to {high / 1e6:g} MPa "
-            f"({value / 1e6:.4g} MPa): is it in the wrong unit?")
-
-
-def warn_if_implausible_parameter(value: float, name: str, plausible: tuple[float, float]) -> None:
-    reason = implausible_parameter(value, name, plausible)
-    if reason is not None:
-        warnings.warn(reason + " Computing as given.", ImplausibleParameterWarning, stacklevel=4)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, positive_int, to_float, whole_number
+from roadtex._checks import as_float_array, positive_int, to_float, warn_if_implausible_rubber, whole_number
 from roadtex.models.results import ContactMeasures
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 
@@ -132,5 +132,6 @@ def clapp(
     lap = whole_number(overlap, "overlap", 0)
     if np.isfinite(z).all():
         warn_if_implausible_texture(z, dx_f, "heights")
+    warn_if_implausible_rubber(e_f, p_f)
     pressure, envelope, count, sweeps = _core.clapp(z, dx_f, e_f, nu_f, p_f, sub, lap, bool(wrap))
     return ClappResult(z, dx_f, pressure, envelope, e_f, nu_f, p_f, sub, lap, bool(wrap), count, sweeps)

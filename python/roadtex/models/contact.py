@@ -10,7 +10,7 @@ from typing import Literal, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, to_float
+from roadtex._checks import as_float_array, moduli_array, positive_int, to_float, warn_if_implausible_rubber
 from roadtex.errors import ConvergenceError
 from roadtex.models.results import ContactBatch, ContactResult
 from roadtex.profiles.plausibility import warn_if_implausible_texture
@@ -64,11 +64,14 @@ def contact(
         ImplausibleTextureWarning: the heights cannot be a road texture profile in metres
             (peak-to-valley above 1 m, rms above 0.25 m, or median slope above 20, linear trend
             removed): probably millimetres. The problem is still solved as given.
+        ImplausibleParameterWarning: E outside 10 kPa to 10 GPa or P outside 100 Pa to 100 MPa:
+            probably MPa given as Pa (silence it for dimensionless model problems).
     """
     z = as_float_array(heights, "heights", 1)
     dx_f, e_f, p_f, nu_f = (to_float(dx, "dx"), to_float(youngs_modulus, "youngs_modulus"),
                             to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
     warn_if_implausible_texture(z, dx_f, "heights")
+    warn_if_implausible_rubber(e_f, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve(
         z, dx_f, e_f, nu_f, p_f, bool(periodic), kernel, method, to_float(tol, "tol"),
         positive_int(max_iterations, "max_iterations"),
@@ -121,6 +124,7 @@ def contact_many(
     threads = None if threads is None else positive_int(threads, "threads")
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
+    warn_if_implausible_rubber(moduli, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),

@@ -14,7 +14,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, to_float
+from roadtex._checks import as_float_array, moduli_array, positive_int, to_float, warn_if_implausible_rubber
 from roadtex.errors import ConvergenceError
 from roadtex.models.contact import Kernel, Method
 from roadtex.profiles.plausibility import warn_if_implausible_texture
@@ -159,6 +159,7 @@ def contact_surface(
     e_f, p_f, nu_f = (to_float(youngs_modulus, "youngs_modulus"), to_float(mean_pressure, "mean_pressure"),
                       to_float(poisson, "poisson"))
     warn_if_implausible_texture(z, dx_f, "heights", row="surface row")
+    warn_if_implausible_rubber(e_f, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve_surface(
         z, dx_f, dy_f, e_f, nu_f, p_f, bool(periodic), kernel, method, to_float(tol, "tol"),
         positive_int(max_iterations, "max_iterations"),
@@ -211,6 +212,7 @@ def contact_surface_many(
     p_f, nu_f = to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     if heights.size:
         warn_if_implausible_texture(heights.reshape(-1, heights.shape[-1]), dx_f, "tiles", row="surface row")
+    warn_if_implausible_rubber(moduli, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve_surface_many(
         heights, dx_f, dy_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),

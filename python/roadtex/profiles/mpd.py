@@ -126,7 +126,9 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         raise InvalidInputError(f"slope_suppression must be 'regression' or 'highpass', got {slope_suppression!r}")
     if not isinstance(profile, Profile):
         raise InvalidInputError(f"profile must be a roadtex Profile, got {type(profile).__name__}")
-    warn_if_implausible_texture(profile.heights, profile.dx, str(profile.metadata.get("source", "profile")))
+    # Drop-out codes are taken as drop-outs below (step 1): they say nothing about the unit.
+    warn_if_implausible_texture(profile.heights, profile.dx, str(profile.metadata.get("source", "profile")),
+                                skip_codes=True)
     points = int(round(seg_length / spacing))
     if points < 4 or abs(points * spacing - seg_length) > 1e-9 * seg_length:
         raise InvalidInputError(f"segment_length {seg_length:g} m must be a whole number (>= 4) of sample_spacing {spacing:g} m")

@@ -32,23 +32,25 @@ PLAUSIBLE_MAX_DX = 5e-3
 
 
 def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment",
-                        measured: bool = True) -> str | None:
+                        measured: bool = True, skip_codes: bool | None = None) -> str | None:
     """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
     cannot be a road texture profile in metres, or None.
 
-    Looks at each row with its least-squares line removed; drop-out codes (readings far outside
-    the row's own range, :func:`~roadtex.profiles.conditioning.gross_outliers`) are left out, and
-    rows with NaN are judged on their valid readings' spread only. Used by every function that takes heights (a warning) and by the bulk
+    Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
+    readings' spread only. With ``skip_codes`` (default: ``measured``) drop-out codes, readings far
+    outside the row's own range (:func:`~roadtex.profiles.conditioning.gross_outliers`), are left
+    out: conditioning removes them from a file before anything else. Used by every function that takes heights (a warning) and by the bulk
     job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it also
     refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
     a sampling too coarse for texture (dx above :data:`PLAUSIBLE_MAX_DX`: distances in mm read as
     m); the solvers and spectra, which also take model problems, check the upper limits only.
     """
     rows = np.atleast_2d(np.asarray(heights, dtype=np.float64))
-    # Drop-out codes (a -850 mm reading among mm of texture) say nothing about the unit: judged
-    # without them, as the job cleans them out before anything else.
-    codes = gross_outliers(rows)
-    if codes.any():
+    # In a file, drop-out codes (a -850 mm reading among mm of texture) say nothing about the
+    # unit, and conditioning removes them before anything else: judged without them. Heights
+    # handed to a solver are judged as they are (a code there is solved as a 850 mm pit).
+    codes = gross_outliers(rows) if (measured if skip_codes is None else skip_codes) else None
+    if codes is not None and codes.any():
         rows = np.where(codes, np.nan, rows)
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
@@ -88,10 +90,11 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
 
 
 def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3,
-                                row: str = "segment", measured: bool = False) -> None:
+                                row: str = "segment", measured: bool = False,
+                                skip_codes: bool | None = None) -> None:
     """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
-    (see :func:`implausible_texture`; ``row`` names what a row is; ``measured`` for a file read);
-    the computation goes on as given."""
-    reason = implausible_texture(heights, dx, name, row=row, measured=measured)
+    (see :func:`implausible_texture`; ``row`` names what a row is; ``measured`` for a file read;
+    ``skip_codes`` to leave drop-out codes out); the computation goes on as given."""
+    reason = implausible_texture(heights, dx, name, row=row, measured=measured, skip_codes=skip_codes)
     if reason is not None:
         warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)
