@@ -245,7 +245,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         path = out / f"{name}.parquet"
         metadata = parquet_metadata(TABLES[name])
         if files:
-            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates).select(
+            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
             write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
@@ -254,6 +254,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         written[name] = path
     edge = edge_effect_table(options)
     write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p, metadata=parquet_metadata(TABLES["edge_effect"])))
+    # the plan (its pilot, error estimates and speed-up) covers line runs only
+    surface_ids = [run["run_id"] for run in manifest.iter_rows(named=True) if is_surface_run(run)]
     written["edge_effect"] = out / "edge_effect.parquet"
     pilot = (study.select([pl.col(c).cast(t) if c in study.columns else pl.lit(None, dtype=t).alias(c)
                            for c, t in PILOT_SCHEMA.items()])
@@ -277,15 +279,16 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
 
 
 def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan | None) -> tuple[pl.DataFrame, pl.DataFrame]:
-    """Each run's error estimates from its own pilot group (device, pavement, file sampling
+    """Each line run's error estimates from its own pilot group (device, pavement, file sampling
     interval), or the largest of any group when no pilot covered its group: per (run, band)
-    ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``."""
+    ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``. Surface runs
+    have none: the pilot is of line runs, and a surface run is solved at its own spacings."""
     band_rows: list[tuple[str, int, float]] = []
     run_rows: list[tuple[str, float | None, bool | None]] = []
     if plan is not None and plan.budget_db is not None and run_files:
         file_dx = dict(pl.scan_parquet(run_files, schema=RUN_RUN_SCHEMA).select("run_id", "file_dx").collect().iter_rows())
         for run in manifest.iter_rows(named=True):
-            if run["run_id"] not in file_dx:
+            if run["run_id"] not in file_dx or is_surface_run(run):
                 continue
             group = plan.group_of(run, file_dx[run["run_id"]])
             errors = plan.band_error_db if group is None else group.band_error_db
@@ -299,25 +302,32 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
 
 
 def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
-              estimates: tuple[pl.DataFrame, pl.DataFrame]) -> pl.LazyFrame:
+              estimates: tuple[pl.DataFrame, pl.DataFrame], surface_ids: Sequence[str] = ()) -> pl.LazyFrame:
     """The plan's columns added to a combined table: each band row's error estimate, each run's
     worst error and budget verdict (``estimates``, from :func:`run_estimates`), the speed-up and
-    time saved (null where the plan has none)."""
+    time saved (null where the plan has none, and for every row of the surface runs
+    ``surface_ids``, which the plan does not cover)."""
     band_errors, run_verdicts = estimates
     if name == "bands":
         joined = query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
-        # the pilot measures the line model only: areal rows have no error estimate
-        return joined.with_columns(pl.when(pl.col("model") == "areal").then(None)
+        # the pilot measures the line model of line runs only: areal rows, and the line rows of
+        # surface runs, have no error estimate
+        return joined.with_columns(pl.when((pl.col("model") == "areal") | surface).then(None)
                                    .otherwise(pl.col("level_error_db")).alias("level_error_db"))
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in
         # parameters.json and pilot.parquet.
         speedup = None if plan is None else plan.speedup
-        return query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left").with_columns(
-            pl.lit(speedup, dtype=pl.Float64).alias("speedup"),
-            pl.lit(None if not speedup else 1.0 - 1.0 / speedup, dtype=pl.Float64).alias("time_saved_fraction"))
+        saved = None if not speedup else 1.0 - 1.0 / speedup
+        joined = query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left")
+        return joined.with_columns(
+            *[pl.when(surface).then(None).otherwise(pl.col(c)).alias(c) for c in ("worst_level_error_db", "within_budget")],
+            pl.when(surface).then(None).otherwise(pl.lit(speedup, dtype=pl.Float64)).cast(pl.Float64).alias("speedup"),
+            pl.when(surface).then(None).otherwise(pl.lit(saved, dtype=pl.Float64)).cast(pl.Float64)
+            .alias("time_saved_fraction"))
     return query
+    surface = pl.col("run_id").is_in(pl.Series(list(surface_ids), dtype=pl.String).implode())
 
 
 def software_versions() -> dict[str, str]:

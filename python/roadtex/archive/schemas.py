@@ -84,14 +84,15 @@ BAND_COLUMNS: Columns = {
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
-                                                  # (the line-run pilot's; null for areal rows: not budgeted)
+                                                  # (the line-run pilot's; null for surface runs' rows: not budgeted)
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
     "path": (pl.String(), None),
     "format": (pl.String(), None),                # as given in the manifest (null: guessed from the file)
     "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
-    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's)
+    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
+                                                  # a surface run's own dx along the road)
     "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's)
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
@@ -108,8 +109,10 @@ RUN_COLUMNS: Columns = {
     "mpd_valid_baselines": (pl.Int64(), "count"),
     "mpd_baselines": (pl.Int64(), "count"),
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
-    "within_budget": (pl.Boolean(), None),        # null without budget
-    "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count)
+                                                   # and for surface runs (the pilot is of line runs)
+    "within_budget": (pl.Boolean(), None),        # null without budget and for surface runs
+    "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
+                                                  # null for surface runs)
     "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
 }
 PILOT_COLUMNS: Columns = {
