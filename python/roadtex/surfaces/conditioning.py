@@ -1,8 +1,10 @@
-"""Conditioning steps for surfaces: drop-out filling, spike removal, plane removal, resampling.
+"""Conditioning steps for surfaces: gross outlier and spike removal (:func:`clean`), drop-out
+filling, spike removal, plane removal, resampling.
 
 Each function returns a new surface and records one history line; :class:`Surface`'s methods of
 the same names call them. The spike criterion is the one of the line profiles
-(:func:`roadtex.profiles.conditioning.spike_mask`), with a 2-D median window.
+(:func:`roadtex.profiles.conditioning.spike_mask`), with a 2-D median window; the gross outlier
+criterion is the line profiles' own (:func:`roadtex.profiles.conditioning.outlier_mask`).
 """
 
 from __future__ import annotations
