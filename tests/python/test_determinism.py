@@ -157,9 +157,9 @@ def test_bulk_job_tables_are_identical_with_1_and_2_threads(tmp_path: Path):
         summary = process(manifest, out, OPTIONS, quiet=True, threads=threads)
         assert summary.processed == 3 and summary.failed == 0
         outs.append(out)
-    names = ["segments", "bands", "runs", "errors", "examples", "edge_effect"]
+    names = ["segments", "bands", "runs", "errors", "examples", "edge_effect", "von_meier", "penetration"]
     per_run = sorted(p.relative_to(outs[0]) for p in (outs[0] / "runs").glob("*/*.parquet"))
-    assert len(per_run) == 12  # segments, bands, run, example per run
+    assert len(per_run) == 18  # segments, bands, run, example, von_meier, penetration per run
     for out in outs[1:]:
         for name in names:
             a, b = pl.read_parquet(outs[0] / f"{name}.parquet"), pl.read_parquet(out / f"{name}.parquet")

@@ -14,7 +14,7 @@ import numpy as np
 import polars as pl
 
 from roadtex._core import __version__
-from roadtex.archive.compute import RunFailure, compute_run
+from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions
@@ -24,6 +24,7 @@ from roadtex.archive.schemas import (
     EDGE_EFFECT_SCHEMA,
     ERROR_SCHEMA,
     EXAMPLE_SCHEMA,
+    PENETRATION_SCHEMA,
     PILOT_SCHEMA,
     RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
@@ -31,6 +32,7 @@ from roadtex.archive.schemas import (
     SEGMENT_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
     TABLES,
+    VON_MEIER_SCHEMA,
     parquet_metadata,
     units,
 )
@@ -46,10 +48,12 @@ from roadtex.archive.store import (
     write_json,
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
-from roadtex.comparisons.figures import edge_effect
+from roadtex.comparisons.figures import edge_effect, example_comparisons
 from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
 
 Engine = Literal["local", "dask"]
+#: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
+COMPARISON_TABLES = {"von_meier": VON_MEIER_SCHEMA, "penetration": PENETRATION_SCHEMA}
 #: Units of ProcessingOptions' fields, recorded in parameters.json.
 OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
                 "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1", "error_budget_db": "dB"}
@@ -118,6 +122,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     try:
         compute = compute_surface_run if is_surface_run(run) else compute_run
         tables = compute(run, options, threads=threads)
+        if tables.get("example") is not None:
+            tables.update(run_stage("solve", lambda: comparison_tables(tables["example"], options.mean_pressure)))
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)
@@ -128,7 +134,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
-    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example"):
+    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", *COMPARISON_TABLES):
         if status["state"] != "ok" or (stale == "profiles" and not options.keep_profiles):
             (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
     write_json(run_dir / STATUS_FILE, status)
@@ -219,7 +225,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     """
     out = Path(out_dir)
     options_fingerprint = options.fingerprint()
-    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": []}
+    parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": [],
+                                    **{name: [] for name in COMPARISON_TABLES}}
     errors: list[dict[str, Any]] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
@@ -234,18 +241,27 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         parts["runs"].append(run_dir / "run.parquet")
         if (run_dir / "example.parquet").exists():
             parts["examples"].append(run_dir / "example.parquet")
+            parts["von_meier"].append(run_dir / "von_meier.parquet")
+            parts["penetration"].append(run_dir / "penetration.parquet")
+            if not all((run_dir / f"{name}.parquet").exists() for name in COMPARISON_TABLES):
+                # a run processed by a roadtex before these tables: made from its own example solves
+                comparisons = comparison_tables(pl.read_parquet(run_dir / "example.parquet"), options.mean_pressure)
+                for name, frame in comparisons.items():
+                    write_atomically(run_dir / f"{name}.parquet", lambda p, t=frame: t.write_parquet(p, statistics=True))
         if (run_dir / "surface_example.parquet").exists():
             parts["surface_examples"].append(run_dir / "surface_example.parquet")
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
-               "surface_examples": SURFACE_EXAMPLE_SCHEMA}
+               "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     estimates = run_estimates(manifest, parts["runs"], plan)
+    # the plan (its pilot, error estimates and speed-up) covers line runs only
+    surface_ids = [run["run_id"] for run in manifest.iter_rows(named=True) if is_surface_run(run)]
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
         metadata = parquet_metadata(TABLES[name])
         if files:
-            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates).select(
+            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
             write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
@@ -277,15 +293,16 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
 
 
 def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan | None) -> tuple[pl.DataFrame, pl.DataFrame]:
-    """Each run's error estimates from its own pilot group (device, pavement, file sampling
+    """Each line run's error estimates from its own pilot group (device, pavement, file sampling
     interval), or the largest of any group when no pilot covered its group: per (run, band)
-    ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``."""
+    ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``. Surface runs
+    have none: the pilot is of line runs, and a surface run is solved at its own spacings."""
     band_rows: list[tuple[str, int, float]] = []
     run_rows: list[tuple[str, float | None, bool | None]] = []
     if plan is not None and plan.budget_db is not None and run_files:
         file_dx = dict(pl.scan_parquet(run_files, schema=RUN_RUN_SCHEMA).select("run_id", "file_dx").collect().iter_rows())
         for run in manifest.iter_rows(named=True):
-            if run["run_id"] not in file_dx:
+            if run["run_id"] not in file_dx or is_surface_run(run):
                 continue
             group = plan.group_of(run, file_dx[run["run_id"]])
             errors = plan.band_error_db if group is None else group.band_error_db
@@ -299,25 +316,48 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
 
 
 def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
-              estimates: tuple[pl.DataFrame, pl.DataFrame]) -> pl.LazyFrame:
+              estimates: tuple[pl.DataFrame, pl.DataFrame], surface_ids: Sequence[str] = ()) -> pl.LazyFrame:
     """The plan's columns added to a combined table: each band row's error estimate, each run's
     worst error and budget verdict (``estimates``, from :func:`run_estimates`), the speed-up and
-    time saved (null where the plan has none)."""
+    time saved (null where the plan has none, and for every row of the surface runs
+    ``surface_ids``, which the plan does not cover)."""
     band_errors, run_verdicts = estimates
+    surface = pl.col("run_id").is_in(pl.Series(list(surface_ids), dtype=pl.String).implode())
     if name == "bands":
         joined = query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
-        # the pilot measures the line model only: areal rows have no error estimate
-        return joined.with_columns(pl.when(pl.col("model") == "areal").then(None)
+        # the pilot measures the line model of line runs only: areal rows, and the line rows of
+        # surface runs, have no error estimate
+        return joined.with_columns(pl.when((pl.col("model") == "areal") | surface).then(None)
                                    .otherwise(pl.col("level_error_db")).alias("level_error_db"))
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in
         # parameters.json and pilot.parquet.
         speedup = None if plan is None else plan.speedup
-        return query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left").with_columns(
-            pl.lit(speedup, dtype=pl.Float64).alias("speedup"),
-            pl.lit(None if not speedup else 1.0 - 1.0 / speedup, dtype=pl.Float64).alias("time_saved_fraction"))
+        saved = None if not speedup else 1.0 - 1.0 / speedup
+        joined = query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left")
+        return joined.with_columns(
+            *[pl.when(surface).then(None).otherwise(pl.col(c)).alias(c) for c in ("worst_level_error_db", "within_budget")],
+            pl.when(surface).then(None).otherwise(pl.lit(speedup, dtype=pl.Float64)).cast(pl.Float64).alias("speedup"),
+            pl.when(surface).then(None).otherwise(pl.lit(saved, dtype=pl.Float64)).cast(pl.Float64)
+            .alias("time_saved_fraction"))
     return query
+
+
+def comparison_tables(example: pl.DataFrame, mean_pressure: float) -> dict[str, pl.DataFrame]:
+    """The seed's model comparisons on a run's example segment (``example``, EXAMPLE_SCHEMA: the
+    job's own solves at every modulus, at ``mean_pressure`` Pa): its von Meier envelopes and valley
+    penetration table (:func:`roadtex.comparisons.figures.example_comparisons`), what the report's
+    figures 2.1 and 4.3 draw without computing anything."""
+    rows = example.sort("youngs_modulus", "position")
+    moduli = rows["youngs_modulus"].unique(maintain_order=True).to_list()
+    first = rows.filter(pl.col("youngs_modulus") == moduli[0])
+    envelopes = {float(e): rows.filter(pl.col("youngs_modulus") == e)["envelope"].to_numpy() for e in moduli}
+    envelope_table, penetration = example_comparisons(first["height"].to_numpy(), float(first["dx"][0]), envelopes,
+                                                      mean_pressure=mean_pressure)
+    keys = [pl.lit(first["run_id"][0]).alias("run_id"), pl.lit(int(first["segment"][0])).alias("segment")]
+    return {name: table.with_columns(keys).select([pl.col(c).cast(t) for c, t in COMPARISON_TABLES[name].items()])
+            for name, table in (("von_meier", envelope_table), ("penetration", penetration))}
 
 
 def software_versions() -> dict[str, str]:

@@ -41,32 +41,41 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     if isinstance(source, pl.DataFrame):
         table = source
         base = Path(base_dir) if base_dir is not None else Path.cwd()
+        where, text = "manifest (a DataFrame)", False
     else:
         manifest_path = Path(source)
         base = Path(base_dir) if base_dir is not None else manifest_path.resolve().parent
+        where = f"manifest {manifest_path}"
         if not manifest_path.is_file():
-            raise ManifestError(f"manifest {manifest_path} does not exist or is not a file")
+            raise ManifestError(f"{where} does not exist or is not a file")
+        text = manifest_path.suffix.lower() != ".parquet"
         try:
-            if manifest_path.suffix.lower() == ".parquet":
+            if not text:
                 table = pl.read_parquet(manifest_path)
             else:
                 separator = "\t" if manifest_path.suffix.lower() in (".tsv", ".tab") else ","
                 table = pl.read_csv(manifest_path, separator=separator, infer_schema=False)
         except Exception as exc:  # polars raises several exception types for malformed files
-            raise ManifestError(f"cannot read manifest {manifest_path}: {exc}") from None
+            raise ManifestError(f"cannot read {where}: {exc}") from None
+
+    def cell(index: int, column: str) -> str:
+        """Where a cell is: the manifest, its 1-based data row (and line, in a text file) and column."""
+        line = f", line {index + 2} of the file" if text else ""
+        return f"{where}, data row {index + 1} (1-based, header not counted{line}), column {column!r}"
+
     if "path" not in table.columns:
-        raise ManifestError(f"manifest has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
+        raise ManifestError(f"{where} has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
     known = {**MANIFEST_COLUMNS, **READER_COLUMNS}
     unknown = [c for c in table.columns
                if c not in known and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
     if unknown:
         raise ManifestError(
-            f"manifest has unknown column(s) {', '.join(map(repr, unknown))}; known: "
+            f"{where} has unknown column(s) {', '.join(map(repr, unknown))}; known: "
             f"{', '.join(MANIFEST_COLUMNS)}; reader options {', '.join(READER_COLUMNS)}; "
             f"and {NOISE_PREFIX}<band> for noise levels (dB); "
             "pass extra_columns to carry others along")
     if table.height == 0:
-        raise ManifestError("manifest lists no runs")
+        raise ManifestError(f"{where} lists no runs")
     casts = []
     for name, dtype in MANIFEST_COLUMNS.items():
         if name not in table.columns:
@@ -79,37 +88,44 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     for name in table.columns:
         if name.startswith(NOISE_PREFIX):
             casts.append(pl.col(name).cast(pl.Float64, strict=False).alias(name))
+    indexed = table.with_row_index("__row__")
     numeric = [n for n, t in READER_COLUMNS.items() if t is pl.Float64]
     for name in ("speed_kmh", *numeric, *[c for c in table.columns if c.startswith(NOISE_PREFIX)]):
         if name in table.columns:
-            bad = table.filter(pl.col(name).is_not_null()
-                               & pl.col(name).cast(pl.Float64, strict=False).is_null())
+            bad = indexed.filter(pl.col(name).is_not_null()
+                                 & pl.col(name).cast(pl.Float64, strict=False).is_null())
             if bad.height:
-                raise ManifestError(f"manifest column {name!r} must be numeric; row value {bad[name][0]!r}")
+                raise ManifestError(f"{cell(bad['__row__'][0], name)}: must be numeric, found {bad[name][0]!r}")
     for name, unit in (("speed_kmh", "km/h"), ("dx", "m"), ("dy", "m")):
         if name in table.columns:
-            values = table[name].cast(pl.Float64, strict=False).drop_nulls()
-            if values.len() and not (values > 0).all():
-                raise ManifestError(f"manifest column {name!r} must be positive ({unit}); found {values.filter(values <= 0)[0]!r}")
+            value = pl.col(name).cast(pl.Float64, strict=False)
+            bad = indexed.filter(value.is_not_null() & ~(value > 0))
+            if bad.height:
+                raise ManifestError(f"{cell(bad['__row__'][0], name)}: must be positive ({unit}), found {bad[name][0]!r}")
     if "decimal" in table.columns:
-        bad_marks = table.filter(pl.col("decimal").is_not_null() & ~pl.col("decimal").is_in([".", ","]))
+        bad_marks = indexed.filter(pl.col("decimal").is_not_null() & ~pl.col("decimal").is_in([".", ","]))
         if bad_marks.height:
-            raise ManifestError(f"manifest column 'decimal' must be '.' or ','; found {bad_marks['decimal'][0]!r}")
+            raise ManifestError(f"{cell(bad_marks['__row__'][0], 'decimal')}: must be '.' or ',', "
+                                f"found {bad_marks['decimal'][0]!r}")
     table = table.with_columns(casts)
     if table["path"].null_count():
-        raise ManifestError("manifest column 'path' has empty entries")
+        first = int(table["path"].is_null().arg_max() or 0)
+        raise ManifestError(f"{cell(first, 'path')}: empty; every run needs a file "
+                            f"({table['path'].null_count()} empty path(s) in all)")
     paths = [str((base / p).resolve()) if not Path(p).is_absolute() else str(Path(p)) for p in table["path"]]
-    missing = [p for p in paths if not Path(p).exists()]
+    missing = [i for i, p in enumerate(paths) if not Path(p).exists()]
     if missing:
-        raise ManifestError(f"{len(missing)} file(s) listed in the manifest do not exist, first: {missing[0]}")
+        raise ManifestError(f"{cell(missing[0], 'path')}: no file {paths[missing[0]]} "
+                            f"({len(missing)} file(s) listed in the manifest do not exist)")
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
-    seen: set[str] = set()
-    for rid in run_ids:
+    seen: dict[str, int] = {}
+    for index, rid in enumerate(run_ids):
         if rid in seen:
-            raise ManifestError(f"run id {rid!r} appears twice in the manifest; give each run a unique run_id")
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {seen[rid] + 1}; "
+                                "a run id left empty is the file name without suffix); give each run a unique run_id")
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
-            raise ManifestError(f"run id {rid!r} cannot name an output folder")
-        seen.add(rid)
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
+        seen[rid] = index
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
 
 

@@ -81,6 +81,8 @@ class JobPlan:
         pilot_seconds: wall time of the pilots (s).
         groups: (device, pavement) groups and the runs each pilot read.
         group_errors: each pilot's estimates by group name (the names of ``groups``).
+        failed_pilots: group name -> why its pilot could not run (the exception's type and
+            message); those groups' runs get the largest estimate of any group.
     """
 
     dx: float
@@ -96,6 +98,7 @@ class JobPlan:
     pilot_seconds: float = 0.0
     groups: dict[str, list[str]] = field(default_factory=dict)
     group_errors: dict[str, GroupError] = field(default_factory=dict)
+    failed_pilots: dict[str, str] = field(default_factory=dict)
 
     def group_of(self, run: dict[str, Any], file_dx: float | None) -> GroupError | None:
         """The pilot group of a manifest row whose file is sampled at ``file_dx`` (m), or None
@@ -173,6 +176,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     for run in runs:
         groups.setdefault(group_key(run), []).append(run)
     choices, studies, read_runs, group_errors = [], [], {}, {}
+    failed: dict[str, str] = {}
     for key, members in groups.items():
         # one pilot per sampling interval within the group (a pilot compares runs on one grid)
         by_dx: dict[float, list[tuple[dict[str, Any], Profile]]] = {}
@@ -187,7 +191,12 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                     budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
                     poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
                     max_iterations=options.max_iterations, threads=threads)
-            except Exception:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
+            except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
+                # recorded (parameters.json's plan) and warned, never dropped silently
+                failed[name] = f"{type(exc).__name__}: {exc}"
+                warnings.warn(f"the error budget pilot of group {name!r} (runs {', '.join(r['run_id'] for r, _ in read)}) "
+                              f"could not run ({failed[name]}); its runs get the largest estimate of any group",
+                              ErrorBudgetWarning, stacklevel=3)
                 continue
             choices.append(choice)
             read_runs[name] = [run["run_id"] for run, _ in read]
@@ -199,7 +208,8 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     if not choices:
         fallback = plan_without_budget(runs, options)
         return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
-                                                                      "and cut into segments)"), pl.DataFrame()
+                                                                      "and cut into segments)",
+                                   failed_pilots=failed), pl.DataFrame()
     dx = min(c.dx for c in choices)
     tol = min(c.tol for c in choices)
     bands = sorted({b for c in choices for b in c.band_error_db})
@@ -223,7 +233,8 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
         finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
-        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors)
+        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
+        failed_pilots=failed)
     return plan, study
 
 

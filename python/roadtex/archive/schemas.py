@@ -84,14 +84,15 @@ BAND_COLUMNS: Columns = {
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
-                                                  # (the line-run pilot's; null for areal rows: not budgeted)
+                                                  # (the line-run pilot's; null for surface runs' rows: not budgeted)
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
     "path": (pl.String(), None),
     "format": (pl.String(), None),                # as given in the manifest (null: guessed from the file)
     "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
-    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's)
+    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
+                                                  # a surface run's own dx along the road)
     "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's)
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
@@ -108,8 +109,10 @@ RUN_COLUMNS: Columns = {
     "mpd_valid_baselines": (pl.Int64(), "count"),
     "mpd_baselines": (pl.Int64(), "count"),
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
-    "within_budget": (pl.Boolean(), None),        # null without budget
-    "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count)
+                                                   # and for surface runs (the pilot is of line runs)
+    "within_budget": (pl.Boolean(), None),        # null without budget and for surface runs
+    "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
+                                                  # null for surface runs)
     "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
 }
 PILOT_COLUMNS: Columns = {
@@ -168,6 +171,35 @@ SURFACE_EXAMPLE_COLUMNS: Columns = {
     "envelope": (pl.Float64(), "m"),              # enveloped surface (areal model)
     "pressure": (pl.Float64(), "Pa"),             # contact pressure (areal model)
 }
+VON_MEIER_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),             # the run's example segment (examples.parquet)
+    "d_star": (pl.Float64(), "1/m"),              # von Meier curvature limit
+    "index": (pl.Int64(), "count"),               # sample within the segment
+    "x": (pl.Float64(), "m"),                     # index x dx, from the segment's start
+    "height": (pl.Float64(), "m"),                # the segment as solved (examples.parquet's height)
+    "envelope": (pl.Float64(), "m"),              # von Meier envelope
+    "depth": (pl.Float64(), "m"),                 # envelope - height
+}
+PENETRATION_COLUMNS: Columns = {
+    "run_id": (pl.String(), None),
+    "segment": (pl.Int64(), "count"),             # the run's example segment (examples.parquet)
+    "valley": (pl.Int64(), "count"),              # valleys of the von Meier envelope at d_star, left to right
+    "start": (pl.Int64(), "count"),               # sample of the bounding asperity on the left
+    "end": (pl.Int64(), "count"),                 # ... and on the right
+    "x_start": (pl.Float64(), "m"),
+    "x_end": (pl.Float64(), "m"),
+    "x_deepest": (pl.Float64(), "m"),
+    "width": (pl.Float64(), "m"),
+    "depth": (pl.Float64(), "m"),                 # below the line joining the two asperities
+    "d_star": (pl.Float64(), "1/m"),
+    "von_meier_penetration": (pl.Float64(), "m"),
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "mean_pressure": (pl.Float64(), "Pa"),
+    "inrets_penetration": (pl.Float64(), "m"),    # the job's own solve (examples.parquet's envelope)
+    "von_meier_ratio": (pl.Float64(), "1"),       # penetration clipped to [0, depth] over depth
+    "inrets_ratio": (pl.Float64(), "1"),
+}
 EDGE_EFFECT_COLUMNS: Columns = {
     "model": (pl.String(), None),                 # "finite", "periodic" or "flat punch (exact)"
     "index": (pl.Int64(), "count"),               # element
@@ -202,6 +234,8 @@ PROFILE_SCHEMA = schema(PROFILE_COLUMNS)
 EXAMPLE_SCHEMA = schema(EXAMPLE_COLUMNS)
 EDGE_EFFECT_SCHEMA = schema(EDGE_EFFECT_COLUMNS)
 SURFACE_EXAMPLE_SCHEMA = schema(SURFACE_EXAMPLE_COLUMNS)
+VON_MEIER_SCHEMA = schema(VON_MEIER_COLUMNS)
+PENETRATION_SCHEMA = schema(PENETRATION_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
@@ -213,5 +247,6 @@ RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUM
 TABLES: dict[str, Columns] = {
     "segments": SEGMENT_COLUMNS, "bands": BAND_COLUMNS, "runs": RUN_COLUMNS, "errors": ERROR_COLUMNS,
     "profiles": PROFILE_COLUMNS, "examples": EXAMPLE_COLUMNS, "edge_effect": EDGE_EFFECT_COLUMNS,
-    "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS,
+    "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS, "von_meier": VON_MEIER_COLUMNS,
+    "penetration": PENETRATION_COLUMNS,
 }

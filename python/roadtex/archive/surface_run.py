@@ -38,11 +38,14 @@ from roadtex.errors import InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
+from roadtex.profiles.conditioning import CleaningSummary
 from roadtex.profiles.mpd import mpd as mean_profile_depth
 from roadtex.profiles.plausibility import implausible_texture
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 from roadtex.spectra.levels import band_levels
+from roadtex.surfaces.conditioning import clean as clean_surface
+from roadtex.surfaces.conditioning import surface_outliers
 from roadtex.surfaces.readers import read_surface
 from roadtex.surfaces.surface import Surface
 
@@ -77,16 +80,13 @@ def surface_reader_options(run: dict[str, Any], options: ProcessingOptions) -> d
     return chosen
 
 
-def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, float]:
-    """Spikes flagged, drop-outs filled, the least-squares plane removed; returns the surface and
-    the share of readings removed as spikes."""
-    surface = raw
-    spike_fraction = 0.0
-    if spike_alpha is not None:
-        before = np.isnan(raw.heights).sum()
-        surface = raw.remove_spikes(spike_alpha)
-        spike_fraction = float((np.isnan(surface.heights).sum() - before) / raw.heights.size)
-    return surface.fill_dropouts().remove_plane(), spike_fraction
+def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, CleaningSummary]:
+    """Gross outliers (drop-out codes) and spikes flagged as the line runs flag them
+    (:func:`roadtex.surfaces.conditioning.clean`), drop-outs filled, the least-squares plane
+    removed; returns the surface and what cleaning removed (with its notes beyond the line runs'
+    WARN_* thresholds)."""
+    cleaned, summary = clean_surface(raw, spike_alpha)
+    return cleaned.fill_dropouts().remove_plane(), summary
 
 
 def line_rows(rows: int) -> np.ndarray:
@@ -122,12 +122,14 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     name = Path(run["path"]).name
     reader = surface_reader_options(run, options)
     raw = run_stage("read", lambda: read_surface(run["path"], **reader))
-    finite = raw.heights[np.isfinite(raw.heights)]
+    # judged without the gross outliers (drop-out codes), which conditioning removes
+    outliers = run_stage("condition", lambda: surface_outliers(raw))
+    finite = raw.heights[np.isfinite(raw.heights) & ~outliers]
     reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
     if reason is not None:
         raise RunFailure("read", InvalidInputError(
             f"{reason} Give the file's units (manifest columns distance_unit, height_unit)."))
-    surface, spike_fraction = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
+    surface, cleaning = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
     tiles = run_stage("segment", lambda: surface.tiles(options.segment_length, surface.width,
                                                        (options.segment_overlap, 0.0)))
     rows = line_rows(surface.shape[0])
@@ -176,7 +178,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": surface_run_table(run, raw, surface, spike_fraction, depths, n_tiles, options.tol),
+        "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, options.tol),
     }
 
 
@@ -293,7 +295,7 @@ def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.nd
                         schema=SEGMENT_SCHEMA)
 
 
-def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, spike_fraction: float, depths: list[Any],
+def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, cleaning: CleaningSummary, depths: list[Any],
                       n_tiles: int, tol: float) -> pl.DataFrame:
     """The run's row of runs.parquet; MPD is the mean over the analysed lines (valid when all are)."""
     values = [d.mpd for d in depths if np.isfinite(d.mpd)]
@@ -301,8 +303,9 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, spike
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
         "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "points": [surface.heights.size],
         "raw_length": [raw.length], "trimmed_length": [0.0], "length": [surface.length], "plates": ["none"],
-        "dropout_fraction": [raw.dropout_fraction], "spike_fraction": [spike_fraction], "outlier_fraction": [0.0],
-        "conditioning_warnings": [None], "segments": [n_tiles],
+        "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
+        "outlier_fraction": [cleaning.outlier_fraction],
+        "conditioning_warnings": ["; ".join(cleaning.warnings) or None], "segments": [n_tiles],
         "mpd": [float(np.mean(values)) if values else None],
         "mpd_valid": [bool(all(d.is_valid for d in depths))],
         "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],

@@ -23,6 +23,10 @@ from roadtex.models.reference import flat_punch_element_pressure
 
 SEED_D_STAR = 54.0
 """The seed's von Meier curvature limit, 0.054 1/mm, in 1/m."""
+#: The curvature limits d* (1/m) of the bulk job's von Meier table (the report's figure 2.1).
+EXAMPLE_D_STARS = (13.5, 27.0, 54.0, 108.0)
+#: Valleys shallower than this (m) are left out of the bulk job's penetration table (figure 4.3).
+EXAMPLE_MIN_DEPTH = 2e-5
 
 VALLEY_COLUMNS = {
     "valley": pl.Int64, "start": pl.Int64, "end": pl.Int64, "x_start": pl.Float64, "x_end": pl.Float64,
@@ -167,6 +171,17 @@ def von_meier_envelopes(heights: np.ndarray | Sequence[float], dx: float, *,
             "envelope": e, "depth": e - z,
         }))
     return pl.concat(frames)
+
+
+def example_comparisons(heights: np.ndarray, dx: float, envelopes: Mapping[float, np.ndarray], *,
+                        mean_pressure: float) -> tuple[pl.DataFrame, pl.DataFrame]:
+    """The seed's model comparisons for one segment solved by the bulk job (heights and the
+    INRETS ``envelopes``, m, keyed by E in Pa, at ``mean_pressure`` Pa; sampling ``dx``, m): the
+    von Meier envelopes at :data:`EXAMPLE_D_STARS` (:func:`von_meier_envelopes`) and the valley
+    penetration table at :data:`SEED_D_STAR` without valleys shallower than
+    :data:`EXAMPLE_MIN_DEPTH` (:func:`penetration_table`), the tables the report draws."""
+    return (von_meier_envelopes(heights, dx, d_stars=EXAMPLE_D_STARS),
+            penetration_table(heights, dx, envelopes, mean_pressure=mean_pressure, min_depth=EXAMPLE_MIN_DEPTH))
 
 
 def edge_effect(*, points: int = 1024, length: float = 0.1, youngs_modulus: float = 2.5e6,

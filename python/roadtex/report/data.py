@@ -96,6 +96,10 @@ class Results:
     #: middle tiles (surface_examples.parquet); None when the results hold no areal row.
     surface_bands: pl.DataFrame | None = None
     surface_examples: pl.DataFrame | None = None
+    #: the job's von Meier envelopes (von_meier.parquet) and valley penetration table
+    #: (penetration.parquet) of each run's example segment: what figures 2.1 and 4.3 draw.
+    von_meier: pl.DataFrame | None = None
+    penetration: pl.DataFrame | None = None
 
     @property
     def options(self) -> dict[str, Any]:
@@ -128,7 +132,7 @@ class Results:
 def load_results(results_dir: Path) -> Results:
     """The tables of a results folder written by :func:`roadtex.process`."""
     needed = ("segments.parquet", "bands.parquet", "runs.parquet", "examples.parquet", "edge_effect.parquet",
-              "parameters.json")
+              "von_meier.parquet", "penetration.parquet", "parameters.json")
     missing = [name for name in needed if not (results_dir / name).exists()]
     if missing:
         raise ResultsNotFoundError(f"{results_dir} is not a roadtex results folder: missing {', '.join(missing)} "
@@ -155,7 +159,8 @@ def load_results(results_dir: Path) -> Results:
                    pl.read_parquet(results_dir / "examples.parquet"),
                    pl.read_parquet(results_dir / "edge_effect.parquet"),
                    json.loads((results_dir / "parameters.json").read_text()),
-                   pl.read_parquet(pilot_path) if pilot_path.exists() else None, surface_bands, surface_examples)
+                   pl.read_parquet(pilot_path) if pilot_path.exists() else None, surface_bands, surface_examples,
+                   pl.read_parquet(results_dir / "von_meier.parquet"), pl.read_parquet(results_dir / "penetration.parquet"))
 
 
 @dataclass

@@ -1,8 +1,10 @@
 """The report: the seed's figures drawn for a processed archive, in one self-contained HTML file.
 
 :func:`build_report` reads only the outputs that :func:`roadtex.archive.process` wrote
-(``segments``, ``bands``, ``runs``, ``errors``, ``examples``, ``edge_effect``, ``pilot`` and
-``parameters.json``): it never re-reads a raw file nor solves a contact problem, so its figures show
+(``segments``, ``bands``, ``runs``, ``errors``, ``examples``, ``edge_effect``, ``von_meier``,
+``penetration``, ``pilot`` and ``parameters.json``): it never re-reads a raw file nor solves a
+contact problem nor computes an envelope (the von Meier envelopes and the valley penetrations of
+figures 2.1 and 4.3 are the job's tables), so its figures show
 exactly what the tables hold. It writes ``report.html`` (figures embedded as PNG data, no network
 needed) plus every figure as PNG and SVG in ``figures/``.
 
@@ -116,16 +118,20 @@ def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> t
     """
     plt = pyplot()
     examples = load_examples(results)
-    pressure = results.options.get("mean_pressure", 2e5)
+    empty = pl.DataFrame()
+    von_meier = results.von_meier if results.von_meier is not None else empty
+    penetration = results.penetration if results.penetration is not None else empty
     figures: dict[str, Any] = {
-        "von_meier": fig_von_meier(plt, examples),
+        "von_meier": fig_von_meier(plt, examples, von_meier),
         "edge_effect": fig_edge_effect(plt, results.edge_effect),
         "envelopes": fig_envelopes(plt, examples),
         "pressures": fig_pressures(plt, examples),
-        "valley_penetration": fig_valley_penetration(plt, examples, results.moduli, pressure),
+        "valley_penetration": fig_valley_penetration(plt, examples, results.moduli, penetration),
         "texture_spectra": fig_texture_spectra(plt, results),
         "pressure_spectra": fig_pressure_spectra(plt, results),
     }
+    if figures["von_meier"] is None:
+        del figures["von_meier"]
     figures["pressure_vs_texture"], regressions = fig_pressure_vs_texture(plt, results)
     figures["setting_speed_vs_error"] = fig_setting_speed_vs_error(plt, results)
     if benchmark is not None:

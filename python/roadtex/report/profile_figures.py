@@ -9,7 +9,7 @@ from typing import Any, Callable
 import numpy as np
 import polars as pl
 
-from roadtex.comparisons.figures import SEED_D_STAR, penetration_table, von_meier_envelopes
+from roadtex.comparisons.figures import SEED_D_STAR
 from roadtex.report.data import COLOURS, MM, Example, legend_outside, megapascals, modulus_label
 
 
@@ -21,11 +21,15 @@ def middle_window(example: Example, length: float = 0.1) -> slice:
     return slice(first, first + points)
 
 
-def fig_von_meier(plt, examples: list[Example]):
+def fig_von_meier(plt, examples: list[Example], envelopes: pl.DataFrame):
+    """Figure 2.1 from the job's ``von_meier.parquet`` (the first example's run), or None when the
+    job wrote no envelope for it."""
     example = examples[0]
     view = middle_window(example)
-    table = von_meier_envelopes(example.heights, example.dx, d_stars=(13.5, 27.0, 54.0, 108.0)).filter(
-        (pl.col("index") >= view.start) & (pl.col("index") < view.stop))
+    table = envelopes.filter((pl.col("run_id") == example.run_id) & (pl.col("index") >= view.start)
+                             & (pl.col("index") < view.stop)).sort("d_star", "index")
+    if table.height == 0:
+        return None
     fig, ax = plt.subplots(figsize=(9, 3.2), layout="constrained")
     first = table.filter(pl.col("d_star") == table["d_star"][0])
     ax.plot(first["x"] * MM, first["height"] * MM, color="0.3", lw=0.8, label="road profile")
@@ -92,12 +96,13 @@ def fig_pressures(plt, examples: list[Example]):
     return per_group(plt, examples, draw, "pressure p (MPa)", "Contact pressure (INRETS periodic model)")
 
 
-def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], mean_pressure: float):
+def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], penetration: pl.DataFrame):
+    """Figure 4.3 from the job's ``penetration.parquet`` (each example's run)."""
     fig, axes = plt.subplots(1, len(examples), figsize=(3.2 * len(examples) + 2.0, 3.6), squeeze=False,
                              layout="constrained")
+    d_star = float(penetration["d_star"][0]) if penetration.height else SEED_D_STAR
     for ax, example in zip(axes[0], examples):
-        table = penetration_table(example.heights, example.dx, example.envelopes, mean_pressure=mean_pressure,
-                                  min_depth=2e-5)
+        table = penetration.filter(pl.col("run_id") == example.run_id)
         top = 0.0
         for colour, e in zip(COLOURS, moduli):
             rows = table.filter(pl.col("youngs_modulus") == e)
@@ -106,7 +111,7 @@ def fig_valley_penetration(plt, examples: list[Example], moduli: list[float], me
             if rows.height:
                 top = max(top, float(rows["von_meier_penetration"].max()), float(rows["inrets_penetration"].max()))
         ax.plot([0, top * MM], [0, top * MM], color="0.5", lw=0.7, ls=":", label="equal penetration")
-        ax.set(xlabel=f"von Meier (d* = {SEED_D_STAR / 1e3:g} 1/mm) penetration (mm)",
+        ax.set(xlabel=f"von Meier (d* = {d_star / 1e3:g} 1/mm) penetration (mm)",
                ylabel="INRETS penetration (mm)", title=example.group)
     legend_outside(fig, axes[0, 0])
     return fig

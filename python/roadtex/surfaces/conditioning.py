@@ -1,8 +1,10 @@
-"""Conditioning steps for surfaces: drop-out filling, spike removal, plane removal, resampling.
+"""Conditioning steps for surfaces: gross outlier and spike removal (:func:`clean`), drop-out
+filling, spike removal, plane removal, resampling.
 
 Each function returns a new surface and records one history line; :class:`Surface`'s methods of
 the same names call them. The spike criterion is the one of the line profiles
-(:func:`roadtex.profiles.conditioning.spike_mask`), with a 2-D median window.
+(:func:`roadtex.profiles.conditioning.spike_mask`), with a 2-D median window; the gross outlier
+criterion is the line profiles' own (:func:`roadtex.profiles.conditioning.outlier_mask`).
 """
 
 from __future__ import annotations
@@ -15,7 +17,14 @@ from scipy import ndimage
 
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError
-from roadtex.profiles.conditioning import SPIKE_WINDOW, format_number
+from roadtex.profiles.conditioning import (
+    SPIKE_WINDOW,
+    WARN_DROPOUT_FRACTION,
+    WARN_SPIKE_FRACTION,
+    CleaningSummary,
+    format_number,
+    outlier_mask,
+)
 
 if TYPE_CHECKING:
     from roadtex.surfaces.surface import Surface
@@ -100,6 +109,49 @@ def remove_spikes(surface: Surface, alpha: float = 3.0) -> Surface:
             f"{format_number(float(alpha) * SPIKE_WINDOW * 1e3)} mm from the median within "
             f"{format_number(SPIKE_WINDOW * 1e3)} mm flagged as drop-outs")
     return surface.derive(z, step=step)
+
+
+def surface_outliers(surface: Surface) -> np.ndarray:
+    """Gross outliers (drop-out codes) of a surface, True = outlier: the line profiles' criterion
+    (:func:`roadtex.profiles.conditioning.outlier_mask`: further than OUTLIER_SIGMAS robust standard
+    deviations of all the surface's heights from their median, and at least OUTLIER_MIN_DISTANCE m)."""
+    # outlier_mask reads only ``heights``; its median and spread are over every valid reading
+    return outlier_mask(surface)  # type: ignore[arg-type]
+
+
+def clean(surface: Surface, spike_alpha: float | None = 3.0) -> tuple[Surface, CleaningSummary]:
+    """Flags gross outliers and then spikes as drop-outs (NaN), as the line profiles'
+    :func:`roadtex.profiles.conditioning.clean` does (no reference plates: surfaces have none).
+
+    Returns the cleaned surface (drop-outs not yet filled) and what was removed (shares 0..1 of
+    the readings), with a note, as the line runs record it, for each share beyond the line
+    profiles' thresholds (:data:`~roadtex.profiles.conditioning.WARN_SPIKE_FRACTION` for spikes
+    and outliers together, :data:`~roadtex.profiles.conditioning.WARN_DROPOUT_FRACTION` for the
+    file's drop-outs); nothing is warned here, the notes are returned.
+    """
+    z = surface.heights
+    n = z.size
+    dropouts = int(np.count_nonzero(np.isnan(z)))
+    outliers = surface_outliers(surface)
+    spikes = np.zeros(z.shape, dtype=bool)
+    if spike_alpha is not None:
+        spikes = spike_mask(surface.derive(np.where(outliers, np.nan, z)), spike_alpha) & ~outliers
+    removed = outliers | spikes
+    cleaned = surface.derive(np.where(removed, np.nan, z) if removed.any() else z, step=(
+        f"clean(spike_alpha={spike_alpha}): {int(outliers.sum())} gross outliers and {int(spikes.sum())} spikes "
+        f"(median within {format_number(SPIKE_WINDOW * 1e3)} mm) flagged as drop-outs"))
+    spike_fraction, outlier_fraction = float(spikes.sum()) / n, float(outliers.sum()) / n
+    notes = []
+    if spike_fraction + outlier_fraction > WARN_SPIKE_FRACTION:
+        notes.append(f"{100 * (spike_fraction + outlier_fraction):.1f} % of the readings removed as spikes "
+                     f"or outliers (warned above {100 * WARN_SPIKE_FRACTION:g} %)")
+    if dropouts / n > WARN_DROPOUT_FRACTION:
+        notes.append(f"{100 * dropouts / n:.1f} % of the readings are drop-outs "
+                     f"(warned above {100 * WARN_DROPOUT_FRACTION:g} %)")
+    length = surface.length
+    return cleaned, CleaningSummary(raw_length=length, trimmed_length=0.0, plates="none",
+                                    spike_fraction=spike_fraction, outlier_fraction=outlier_fraction,
+                                    dropout_fraction=dropouts / n, warnings=tuple(notes))
 
 
 def remove_plane(surface: Surface) -> Surface:
