@@ -168,3 +168,23 @@ def test_dropout_codes_do_not_make_a_file_look_like_the_wrong_unit() -> None:
     from roadtex.profiles.plausibility import implausible_texture
     assert implausible_texture(z, p.dx, "coded.csv", measured=True) is None
     assert implausible_texture(z * 1e3, p.dx, "mm.csv", measured=True) is not None  # mm read as m
+
+
+def test_plane_fit_agrees_with_lapack_and_refuses_a_line() -> None:
+    """The plain-sum plane (thread-count independent) against LAPACK's least squares on scattered
+    points; one row along x has no slope across; points on a diagonal span no plane."""
+    from roadtex.errors import InvalidInputError
+    from roadtex.profiles.trend import plane_fit
+
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(0, 0.2, 500), rng.uniform(0, 0.05, 500)
+    z = 1e-3 + 0.01 * x - 0.03 * y + 1e-4 * rng.standard_normal(500)
+    a, b, c, xm, ym = plane_fit(x, y, z)
+    design = np.column_stack([np.ones_like(x), x - x.mean(), y - y.mean()])
+    expected, *_ = np.linalg.lstsq(design, z, rcond=None)
+    np.testing.assert_allclose([a, b, c], expected, rtol=1e-10, atol=1e-15)
+    assert (xm, ym) == (x.mean(), y.mean())
+    a1, b1, c1, _, _ = plane_fit(x, np.full_like(x, 0.01), z)
+    assert c1 == 0.0 and b1 == pytest.approx(np.polyfit(x, z, 1)[0], rel=1e-10)
+    with pytest.raises(InvalidInputError, match="along and across"):
+        plane_fit(x, 2 * x, z)

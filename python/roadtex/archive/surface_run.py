@@ -38,14 +38,14 @@ from roadtex.errors import InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
-from roadtex.profiles.conditioning import CleaningSummary
+from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
 from roadtex.profiles.mpd import mpd as mean_profile_depth
 from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 from roadtex.spectra.levels import band_levels
 from roadtex.surfaces.conditioning import clean as clean_surface
-from roadtex.surfaces.conditioning import surface_outliers
 from roadtex.surfaces.readers import read_surface
 from roadtex.surfaces.surface import Surface
 
@@ -94,15 +94,6 @@ def line_rows(rows: int) -> np.ndarray:
     return np.unique(np.linspace(0, rows - 1, min(SURFACE_LINES, rows)).round().astype(int))
 
 
-def detrend_lines(values: np.ndarray) -> np.ndarray:
-    """Each row (last axis) with its least-squares line removed."""
-    n = values.shape[-1]
-    t = np.arange(n) - (n - 1) / 2.0
-    mean = values.mean(axis=-1, keepdims=True)
-    slope = (values * t).sum(axis=-1, keepdims=True) / (t * t).sum()
-    return values - mean - slope * t
-
-
 def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
                         threads: int | None = None) -> dict[str, pl.DataFrame | None]:
     """Reads, conditions, tiles and solves one surface run with the areal and the line model.
@@ -123,7 +114,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     reader = surface_reader_options(run, options)
     raw = run_stage("read", lambda: read_surface(run["path"], **reader))
     # judged without the gross outliers (drop-out codes), which conditioning removes
-    outliers = run_stage("condition", lambda: surface_outliers(raw))
+    outliers = run_stage("condition", lambda: outlier_mask(raw))
     finite = raw.heights[np.isfinite(raw.heights) & ~outliers]
     reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
     if reason is not None:
@@ -199,7 +190,7 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
         raise_on_nonconvergence=False))
     # the line model on the same stretches: [tile, line, x]
     take = tiles.column_starts[part][:, None] + np.arange(n_x)[None, :]
-    line_heights = detrend_lines(np.stack([p.heights[take] for p in lines], axis=1))
+    line_heights = remove_lines(np.stack([p.heights[take] for p in lines], axis=1))[0]
     flat = line_heights.reshape(-1, n_x)
     line_batch = run_stage("solve", lambda: contact_many(
         flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Callable, Literal, Protocol, TypeVar
 
 import numpy as np
 from scipy import ndimage, signal
@@ -37,6 +37,19 @@ from roadtex.profiles.trend import line_fits
 
 if TYPE_CHECKING:
     from roadtex.profiles.profile import Profile
+
+
+class Readings(Protocol):
+    """A run of height readings (m): a line profile, or a surface (roadtex.surfaces.Surface)."""
+
+    @property
+    def heights(self) -> np.ndarray: ...
+
+    def derive(self, heights: np.ndarray, *, step: str = "") -> Any: ...
+
+
+#: What :func:`flag_outliers_and_spikes` cleans and gives back: a line profile or a surface.
+Cleanable = TypeVar("Cleanable", bound=Readings)
 
 
 def format_number(value: float) -> str:
@@ -254,9 +267,51 @@ def gross_outliers(heights: np.ndarray) -> np.ndarray:
         return np.abs(z - median) > limit
 
 
-def outlier_mask(profile: Profile) -> np.ndarray:
-    """Readings far outside the run's own height range (:func:`gross_outliers`), True = outlier."""
-    return gross_outliers(profile.heights)
+def outlier_mask(run: Readings) -> np.ndarray:
+    """Readings far outside the run's own height range (:func:`gross_outliers` over all its
+    readings, a surface's too), True = outlier."""
+    z = run.heights
+    return gross_outliers(z.reshape(-1)).reshape(z.shape)
+
+
+def flag_outliers_and_spikes(item: Cleanable, spike_alpha: float | None,
+                             spikes_of: Callable[[Cleanable, float], np.ndarray],
+                             window: str) -> tuple[Cleanable, dict[str, float]]:
+    """Gross outliers (:func:`outlier_mask`), then spikes (``spikes_of``, judged without the
+    outliers) of a profile or a surface flagged as drop-outs (NaN), with one history line
+    (``window`` says how the spike median's window is described); returns the flagged item and
+    the shares 0..1 of the readings: ``spike_fraction``, ``outlier_fraction``, ``dropout_fraction``
+    (the file's own drop-outs)."""
+    z = item.heights
+    dropouts = int(np.count_nonzero(np.isnan(z)))
+    outliers = outlier_mask(item)
+    spikes = np.zeros(z.shape, dtype=bool)
+    if spike_alpha is not None:
+        spikes = spikes_of(item.derive(np.where(outliers, np.nan, z)), spike_alpha) & ~outliers
+    removed = outliers | spikes
+    flagged = item.derive(np.where(removed, np.nan, z) if removed.any() else z, step=(
+        f"clean(spike_alpha={spike_alpha}): {int(outliers.sum())} gross outliers and {int(spikes.sum())} spikes "
+        f"(median {window}{format_number(SPIKE_WINDOW * 1e3)} mm) flagged as drop-outs"))
+    n = z.size
+    return flagged, {"spike_fraction": float(spikes.sum()) / n, "outlier_fraction": float(outliers.sum()) / n,
+                     "dropout_fraction": dropouts / n}
+
+
+def removal_notes(summary: CleaningSummary) -> tuple[str, ...]:
+    """What the cleaning removed beyond the documented shares (:data:`WARN_SPIKE_FRACTION`,
+    :data:`WARN_DROPOUT_FRACTION`, :data:`WARN_TRIMMED_FRACTION`), one sentence each: the notes
+    a run's ``conditioning_warnings`` records, for line profiles and surfaces alike."""
+    notes = []
+    if summary.spike_fraction + summary.outlier_fraction > WARN_SPIKE_FRACTION:
+        notes.append(f"{100 * (summary.spike_fraction + summary.outlier_fraction):.1f} % of the readings removed as spikes "
+                     f"or outliers (warned above {100 * WARN_SPIKE_FRACTION:g} %)")
+    if summary.dropout_fraction > WARN_DROPOUT_FRACTION:
+        notes.append(f"{100 * summary.dropout_fraction:.1f} % of the readings are drop-outs "
+                     f"(warned above {100 * WARN_DROPOUT_FRACTION:g} %)")
+    if summary.trimmed_length > WARN_TRIMMED_FRACTION * summary.raw_length:
+        notes.append(f"{summary.trimmed_length:.3g} m of {summary.raw_length:.3g} m trimmed as reference plates "
+                     f"(warned above {100 * WARN_TRIMMED_FRACTION:g} % of the length)")
+    return tuple(notes)
 
 
 def clean(profile: Profile, *, spike_alpha: float | None = 3.0, trim_plates: bool = True,
@@ -277,30 +332,10 @@ def clean(profile: Profile, *, spike_alpha: float | None = 3.0, trim_plates: boo
         before = len(profile)
         profile = trim_reference_plates(profile, name=name)
         plates = profile.history[-1].split("plates at ", 1)[1].split("; kept", 1)[0] if len(profile) != before else "none"
-    z = profile.heights
-    dropouts = int(np.count_nonzero(np.isnan(z)))
-    outliers = outlier_mask(profile)
-    spikes = np.zeros(z.size, dtype=bool)
-    if spike_alpha is not None:
-        spikes = spike_mask(profile.derive(np.where(outliers, np.nan, z)), spike_alpha) & ~outliers
-    removed = outliers | spikes
-    profile = profile.derive(np.where(removed, np.nan, z) if removed.any() else z, step=(
-        f"clean(spike_alpha={spike_alpha}): {int(outliers.sum())} gross outliers and {int(spikes.sum())} spikes "
-        f"(median over +-{format_number(SPIKE_WINDOW * 1e3)} mm) flagged as drop-outs"))
-    n = z.size
+    profile, shares = flag_outliers_and_spikes(profile, spike_alpha, spike_mask, "over +-")
     summary = CleaningSummary(raw_length=raw_length, trimmed_length=raw_length - profile.length, plates=plates,
-                              spike_fraction=float(spikes.sum()) / n, outlier_fraction=float(outliers.sum()) / n,
-                              dropout_fraction=dropouts / n, warnings=())
-    notes = []
-    if summary.spike_fraction + summary.outlier_fraction > WARN_SPIKE_FRACTION:
-        notes.append(f"{100 * (summary.spike_fraction + summary.outlier_fraction):.1f} % of the readings removed as spikes "
-                     f"or outliers (warned above {100 * WARN_SPIKE_FRACTION:g} %)")
-    if summary.dropout_fraction > WARN_DROPOUT_FRACTION:
-        notes.append(f"{100 * summary.dropout_fraction:.1f} % of the readings are drop-outs "
-                     f"(warned above {100 * WARN_DROPOUT_FRACTION:g} %)")
-    if summary.trimmed_length > WARN_TRIMMED_FRACTION * raw_length:
-        notes.append(f"{summary.trimmed_length:.3g} m of {raw_length:.3g} m trimmed as reference plates "
-                     f"(warned above {100 * WARN_TRIMMED_FRACTION:g} % of the length)")
+                              **shares, warnings=())
+    notes = removal_notes(summary)
     for note in notes if warn else ():
         warnings.warn(f"{name}: {note}", ConditioningWarning, stacklevel=2)
     return profile, CleaningSummary(**{**summary.__dict__, "warnings": tuple(notes)})

@@ -9,6 +9,7 @@ criterion is the line profiles' own (:func:`roadtex.profiles.conditioning.outlie
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -19,12 +20,12 @@ from roadtex._checks import positive
 from roadtex.errors import InvalidInputError
 from roadtex.profiles.conditioning import (
     SPIKE_WINDOW,
-    WARN_DROPOUT_FRACTION,
-    WARN_SPIKE_FRACTION,
     CleaningSummary,
+    flag_outliers_and_spikes,
     format_number,
-    outlier_mask,
+    removal_notes,
 )
+from roadtex.profiles.trend import plane_fit
 
 if TYPE_CHECKING:
     from roadtex.surfaces.surface import Surface
@@ -111,14 +112,6 @@ def remove_spikes(surface: Surface, alpha: float = 3.0) -> Surface:
     return surface.derive(z, step=step)
 
 
-def surface_outliers(surface: Surface) -> np.ndarray:
-    """Gross outliers (drop-out codes) of a surface, True = outlier: the line profiles' criterion
-    (:func:`roadtex.profiles.conditioning.outlier_mask`: further than OUTLIER_SIGMAS robust standard
-    deviations of all the surface's heights from their median, and at least OUTLIER_MIN_DISTANCE m)."""
-    # outlier_mask reads only ``heights``; its median and spread are over every valid reading
-    return outlier_mask(surface)  # type: ignore[arg-type]
-
-
 def clean(surface: Surface, spike_alpha: float | None = 3.0) -> tuple[Surface, CleaningSummary]:
     """Flags gross outliers and then spikes as drop-outs (NaN), as the line profiles'
     :func:`roadtex.profiles.conditioning.clean` does (no reference plates: surfaces have none).
@@ -129,29 +122,9 @@ def clean(surface: Surface, spike_alpha: float | None = 3.0) -> tuple[Surface, C
     and outliers together, :data:`~roadtex.profiles.conditioning.WARN_DROPOUT_FRACTION` for the
     file's drop-outs); nothing is warned here, the notes are returned.
     """
-    z = surface.heights
-    n = z.size
-    dropouts = int(np.count_nonzero(np.isnan(z)))
-    outliers = surface_outliers(surface)
-    spikes = np.zeros(z.shape, dtype=bool)
-    if spike_alpha is not None:
-        spikes = spike_mask(surface.derive(np.where(outliers, np.nan, z)), spike_alpha) & ~outliers
-    removed = outliers | spikes
-    cleaned = surface.derive(np.where(removed, np.nan, z) if removed.any() else z, step=(
-        f"clean(spike_alpha={spike_alpha}): {int(outliers.sum())} gross outliers and {int(spikes.sum())} spikes "
-        f"(median within {format_number(SPIKE_WINDOW * 1e3)} mm) flagged as drop-outs"))
-    spike_fraction, outlier_fraction = float(spikes.sum()) / n, float(outliers.sum()) / n
-    notes = []
-    if spike_fraction + outlier_fraction > WARN_SPIKE_FRACTION:
-        notes.append(f"{100 * (spike_fraction + outlier_fraction):.1f} % of the readings removed as spikes "
-                     f"or outliers (warned above {100 * WARN_SPIKE_FRACTION:g} %)")
-    if dropouts / n > WARN_DROPOUT_FRACTION:
-        notes.append(f"{100 * dropouts / n:.1f} % of the readings are drop-outs "
-                     f"(warned above {100 * WARN_DROPOUT_FRACTION:g} %)")
-    length = surface.length
-    return cleaned, CleaningSummary(raw_length=length, trimmed_length=0.0, plates="none",
-                                    spike_fraction=spike_fraction, outlier_fraction=outlier_fraction,
-                                    dropout_fraction=dropouts / n, warnings=tuple(notes))
+    cleaned, shares = flag_outliers_and_spikes(surface, spike_alpha, spike_mask, "within ")
+    summary = CleaningSummary(raw_length=surface.length, trimmed_length=0.0, plates="none", **shares, warnings=())
+    return cleaned, dataclasses.replace(summary, warnings=removal_notes(summary))
 
 
 def remove_plane(surface: Surface) -> Surface:
@@ -161,17 +134,10 @@ def remove_plane(surface: Surface) -> Surface:
     iy, ix = np.nonzero(valid)
     x = surface.x0 + surface.dx * ix
     y = surface.y0 + surface.dy * iy
-    xm, ym = float(x.mean()), float(y.mean())
-    # centred co-ordinates keep the normal equations well conditioned
-    design = np.column_stack([np.ones(x.size), x - xm, y - ym])
-    if np.linalg.matrix_rank(design) < 3:
-        if np.ptp(y) == 0:   # a single valid row: a line along x, no slope across
-            design = design[:, :2]
-        else:
-            raise InvalidInputError("remove_plane needs valid readings spread along and across the road")
-    coef, *_ = np.linalg.lstsq(design, z[valid], rcond=None)
-    a, b = float(coef[0]), float(coef[1])
-    c = float(coef[2]) if coef.size == 3 else 0.0
+    try:
+        a, b, c, xm, ym = plane_fit(x, y, z[valid])
+    except InvalidInputError:
+        raise InvalidInputError("remove_plane needs valid readings spread along and across the road") from None
     xs = surface.x[None, :] - xm
     ys = surface.y[:, None] - ym
     plane = a + b * xs + c * ys

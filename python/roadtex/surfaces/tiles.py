@@ -113,8 +113,11 @@ def plane_fits(tiles: np.ndarray, dx: float, dy: float) -> np.ndarray:
     xs = dx * (np.arange(columns) - 0.5 * (columns - 1))
     ys = dy * (np.arange(rows) - 0.5 * (rows - 1))
     mean = tiles.mean(axis=(1, 2))
-    slope_x = np.einsum("nij,j->n", tiles, xs) / (rows * float(xs @ xs)) if columns > 1 else np.zeros(len(tiles))
-    slope_y = np.einsum("nij,i->n", tiles, ys) / (columns * float(ys @ ys)) if rows > 1 else np.zeros(len(tiles))
+    # Plain sums, not BLAS products (see roadtex.profiles.trend): the same bits on any thread count.
+    slope_x = (np.sum(tiles * xs[None, None, :], axis=(1, 2)) / (rows * float(np.sum(xs * xs)))
+               if columns > 1 else np.zeros(len(tiles)))
+    slope_y = (np.sum(tiles * ys[None, :, None], axis=(1, 2)) / (columns * float(np.sum(ys * ys)))
+               if rows > 1 else np.zeros(len(tiles)))
     return mean[:, None, None] + slope_x[:, None, None] * xs[None, None, :] + slope_y[:, None, None] * ys[None, :, None]
 
 
