@@ -23,15 +23,22 @@ from roadtex.budget import BudgetChoice, choose_setting, convergence_study
 from roadtex.errors import (
                             ArchiveWriteError,
                             ClappError,
+                            ConditioningWarning,
                             ConvergenceError,
+                            ErrorBudgetWarning,
+                            ImplausibleParameterWarning,
                             ImplausibleTextureWarning,
                             InternalError,
                             InvalidInputError,
                             ManifestError,
+                            MissingDependencyError,
                             ProfileFormatError,
+                            ResultsNotFoundError,
                             RoadtexError,
                             RoadtexWarning,
+                            RunFailure,
                             SolverError,
+                            UnitConflictWarning,
 )
 from roadtex.models import (
                             ClappResult,
@@ -68,7 +75,9 @@ from roadtex.surfaces import Surface, read_surface, synthetic_surface
 __all__ = [
     "__version__", "errors",
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "RoadtexWarning", "ImplausibleTextureWarning",
+    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
+    "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
+    "ErrorBudgetWarning", "UnitConflictWarning",
     "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
     "SurfaceBatch", "SurfaceResult", "contact_surface", "contact_surface_many",
     "comparisons", "reference",

@@ -28,6 +28,12 @@ def test_every_error_and_warning_class_is_under_the_two_roots() -> None:
         assert issubclass(cls, root), f"{name} is not under {root.__name__}"
 
 
+def test_every_error_and_warning_class_is_exported_from_the_package_root() -> None:
+    """What the functions document they raise or warn must be reachable as roadtex.<Name>."""
+    missing = [name for name in errors.__all__ if name not in roadtex.__all__ or getattr(roadtex, name) is not getattr(errors, name)]
+    assert missing == []
+
+
 def test_no_module_defines_an_exception_outside_errors_py() -> None:
     offenders = []
     for path in PACKAGE.rglob("*.py"):

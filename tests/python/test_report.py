@@ -297,6 +297,12 @@ def test_every_level_axis_states_its_reference(drawn) -> None:
             assert "texture" in label and "dB re 1 µm" in label, label
 
 
+def test_each_seed_figure_is_claimed_by_one_figure_only() -> None:
+    """The INRETS report has one figure 4.4: a new figure (the areal model's) never claims it."""
+    assert len(set(SEED_FIGURES.values())) == len(SEED_FIGURES), SEED_FIGURES
+    assert "line_vs_areal" not in SEED_FIGURES
+
+
 def test_figures_are_numbered_in_document_order(report) -> None:
     """Figure 1, 2, 3 ... in the order they appear, each naming the seed figure it reproduces;
     the number of a seed figure (4.1) is never used as the document's own."""

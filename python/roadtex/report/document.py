@@ -94,7 +94,7 @@ FIGURES: dict[str, str] = {
 #: The figure of the INRETS report (the seed) that each figure reproduces.
 SEED_FIGURES: dict[str, str] = {
     "von_meier": "2.1", "edge_effect": "3.1", "envelopes": "4.1", "pressures": "4.2", "valley_penetration": "4.3",
-    "texture_spectra": "4.4", "pressure_spectra": "4.5", "pressure_vs_texture": "4.6", "line_vs_areal": "4.4",
+    "texture_spectra": "4.4", "pressure_spectra": "4.5", "pressure_vs_texture": "4.6",
 }
 
 
@@ -314,6 +314,10 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
 
     Returns:
         A :class:`Report` with the HTML path and each figure's PNG and SVG paths.
+
+    Raises:
+        ResultsNotFoundError: ``results_dir`` is not a finished job's folder (the message names
+            the missing tables).
     """
     results = load_results(Path(results_dir))
     out = Path(out_dir) if out_dir is not None else results.root / "report"

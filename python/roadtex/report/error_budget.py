@@ -52,7 +52,7 @@ def pilot_state(results: Results) -> str | None:
 def fig_setting_speed_vs_error(plt, results: Results):
     """Per group (device / pavement), every (dx, tol) setting the pilot evaluated: time per km
     (s/km) against the worst level error in the budget bands (dB), both logarithmic; the chosen
-    setting ringed, the finest (reference) setting labelled, the budget a dashed vertical line. Without
+    setting a star, the finest (reference) setting a square, the budget a dashed vertical line. Without
     a pilot, one empty pair of axes saying why."""
     reason = pilot_state(results)
     if reason is not None:
