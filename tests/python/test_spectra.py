@@ -343,3 +343,25 @@ def test_bad_input_raises_a_clear_value_error(case):
     call, message = BAD_INPUT[case]
     with pytest.raises(ValueError, match=message):
         call()
+
+
+def test_every_reported_third_octave_holds_at_least_two_dft_lines() -> None:
+    """At the evaluation-length limit (12 centre wavelengths) a third octave is 2.77 line spacings
+    wide: two lines at the least, as the module documents, never one or none."""
+    fewest = min(int(spectra.band_table(1e-3, n * 1e-3).filter(pl.col("reported"))["lines"].min())
+                 for n in range(90, 400))
+    assert fewest == 2
+
+
+def test_the_filter_method_warns_on_millimetres_and_leaves_lineless_bands_empty() -> None:
+    """method="filter" keeps the DFT method's promises: heights in mm warn, and a band holding no
+    DFT line of the segment gets NaN, not its filter skirts' share of the neighbours."""
+    from roadtex.errors import ImplausibleTextureWarning
+
+    z = self_affine_profile(1000, 0.1, hurst=0.8, rms_slope=0.2, seed=3)
+    with pytest.warns(ImplausibleTextureWarning):
+        spectra.band_levels(z[None, :] * 1e3, 1e-4, method="filter")
+    levels = spectra.band_levels(z[None, :], 1e-4, method="filter", periodic=True)
+    empty = levels.bands["lines"].to_numpy() == 0
+    assert empty.any() and np.isnan(levels.levels[0, empty]).all()
+    assert np.isfinite(levels.levels[0, ~empty & levels.bands["reported"].to_numpy()]).all()

@@ -36,7 +36,8 @@ with ``periodic=True`` as well: that is how the model saw it.
 - sampling: its centre wavelength is at least ``MIN_POINTS_PER_WAVELENGTH`` (2.5) sampling
   intervals, which keeps the whole band below the Nyquist wavenumber (lower edge >= 2.23 dx);
 - evaluation length: L is at least ``MIN_WAVELENGTHS_PER_LENGTH`` (12) centre wavelengths, which
-  puts at least three DFT lines in the band.
+  puts at least two DFT lines in a third octave (0.23 L / lambda_c line spacings wide: 2.77 at
+  the limit, so two or three lines; three or more from about 13 wavelengths up).
 
 An octave is reported when its three third octaves are.
 
@@ -49,7 +50,7 @@ band is reported only when 12 centre wavelengths are left after it. These are th
 public implementation of that edition; the standard's text itself was not at hand, so both are
 module constants and ``band_table`` arguments. Levels are computed for every band that holds at
 least one DFT line whether reported or not (filter on ``reported``); a band that holds no line gets
-NaN, and a band whose lines carry no power gets -inf dB.
+NaN (with either method), and a band whose lines carry no power gets -inf dB.
 """
 
 
@@ -168,10 +169,10 @@ def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, ki
     dx = positive(dx, "dx", "metres")
     reference = positive(reference, "reference", "the signal's unit")
     window, detrend = window_and_detrend(bool(periodic), window, detrend)
-    if method == "filter":
-        return _filter_levels(signals, dx, kind, reference, bool(periodic), detrend)
     if reference == REFERENCE_TEXTURE:  # texture in metres: catch heights given in mm
         warn_if_implausible_texture(signals, dx, "values")
+    if method == "filter":
+        return _filter_levels(signals, dx, kind, reference, bool(periodic), detrend)
     n_signals, n_points = signals.shape
     table = band_table(dx, n_points * dx, kind)
     bands = table["band"].to_numpy()
@@ -233,6 +234,9 @@ def _filter_levels(signals: np.ndarray, dx: float, kind: BandKind, reference: fl
         mean_square[start:start + rows_per_block], measured = filtered_mean_squares(block, bank, periodic)
     if not periodic:
         table = _settled_table(table, measured, kind)
+    # A band that holds no DFT line of the segment has no level, as with the DFT method: the filter
+    # would only return its skirts' share of the neighbouring bands.
+    mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
         levels = 10.0 * np.log10(mean_square / reference**2)
     return BandLevels(table, mean_square, levels, reference, dx, periodic, "filter")
