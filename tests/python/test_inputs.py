@@ -225,3 +225,27 @@ def test_moduli_and_pressures_in_mpa_are_warned_about_in_every_solver(call: str)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ImplausibleParameterWarning)
         solvers[call](2.5e6, 2e5)  # plausible: silent
+
+
+@pytest.mark.parametrize(("call", "match"), [
+    (lambda: roadtex.reference.westergaard_contact_half_width(1e-4, -0.02, 2e6, 1e4), "wavelength"),
+    (lambda: roadtex.reference.westergaard_element_pressure(np.zeros(4), 0.0, 1e-4, 0.02, 2e6, 1e4), "dx"),
+    (lambda: roadtex.reference.westergaard_full_contact_pressure(1e-4, 0.0, 2e6), "wavelength"),
+    (lambda: roadtex.reference.flat_punch_element_pressure(np.zeros(4), 1e-3, -0.01, 1e5), "width"),
+    (lambda: roadtex.reference.flat_punch_element_pressure([0.0, np.nan], 1e-3, 0.01, 1e5), "finite"),
+    (lambda: roadtex.reference.hertz_sphere(np.zeros(3), 0.05, -1.0, 1e6), "force"),
+    (lambda: roadtex.reference.bisinusoid_full_contact_pressure(1e-4, 0.01, 0.01, float("nan")), "plane_strain"),
+], ids=["half-width", "element dx", "p*", "punch width", "punch x", "hertz force", "bisinusoid E*"])
+def test_closed_forms_refuse_bad_input_naming_the_argument(call, match: str) -> None:
+    """The closed-form references are public: a bad argument is an InvalidInputError naming it,
+    never a NaN, a complex number, a ZeroDivisionError or a Rust panic."""
+    with pytest.raises(roadtex.InvalidInputError, match=match):
+        call()
+
+
+def test_closed_forms_keep_the_shape_of_their_positions() -> None:
+    x = np.linspace(0.0, 0.02, 12).reshape(3, 4)
+    p = roadtex.reference.westergaard_element_pressure(x, 0.02 / 12, 1e-4, 0.02, 2e6, 1e4)
+    assert p.shape == (3, 4)
+    np.testing.assert_array_equal(p.ravel(), roadtex.reference.westergaard_element_pressure(
+        x.ravel(), 0.02 / 12, 1e-4, 0.02, 2e6, 1e4))
