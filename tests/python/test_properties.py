@@ -47,7 +47,9 @@ def budget(examples: int) -> settings:
     return settings(_PROFILE, max_examples=examples * (20 if _THOROUGH else 1))
 
 
-pytestmark = pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning")
+# The strategies draw heights, E and P over many decades on purpose: the unit warnings are expected.
+pytestmark = [pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleTextureWarning"),
+              pytest.mark.filterwarnings("ignore::roadtex.errors.ImplausibleParameterWarning")]
 
 # --------------------------------------------------------------------------------------------
 # strategies
