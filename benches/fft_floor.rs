@@ -16,10 +16,16 @@
 //! * `self-affine 2^16` (and 2^20 with `--large`): Hurst 0.8, rms slope 0.1, L = 1, E* = 1,
 //!   P = 0.0105, cutoff 0.25, seed 1, tol 1e-8, cold start. Targets: 150 and 600 pairs.
 //!
+//! Cold self-affine solves of 2^14 points or more start from the nested guess
+//! (`solver::nested`): "iterations" and "pairs applied" are the finest level's, "incl coarse" adds
+//! the coarser levels' pairs weighted N_level / N (the time per solve includes them).
+//!
 //! Run: `cargo bench --bench fft_floor` (add `-- --large` for 2^20, about a minute or more;
-//! `-- --only road|16|20` for one case, with `--profile` to leave out the FFT-pair timings, e.g.
-//! under `perf record`; `--baseline` runs the solver's own loops in their baseline (SSE2) copies,
-//! not the AVX2 ones chosen at run time).
+//! `-- --only road|16|20|road20` for one case (`road20`: a 52 m road-like profile at 0.05 mm),
+//! with `--profile` to leave out the FFT-pair timings, e.g. under `perf record`; `--baseline`
+//! runs the solver's own loops in their baseline (SSE2) copies, not the AVX2 ones chosen at run
+//! time; `--sizes 16,18,20` and `--seeds 0,1,2` for self-affine cases of those sizes and seeds;
+//! `--cold` adds each self-affine case without the nested guess, in the same run).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -207,6 +213,24 @@ fn self_affine_case(log2_n: u32, repeats: usize, seed: u64, cold: bool) -> Measu
     })
 }
 
+/// `--only road20`: a road-like profile at N = 2^20 (README "Performance"): 52.4 m at 0.05 mm,
+/// texture down to 3.2 mm (cutoff N / 64), Hurst 0.8, rms slope 0.1, E = 2.5 MPa (nu 0.5),
+/// P = 0.2 MPa, tol 1e-8, cold start, seed 0.
+fn road_like_2_20(cold: bool) -> Measured {
+    let (n, dx) = (1usize << 20, 5e-5);
+    let heights = self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, 1.0 / 64.0, 0);
+    let mut solver = ContactSolver::new(n, dx, SolverOptions { tol: 1e-8, max_iterations: 20_000, ..Default::default() }).expect("solver");
+    if cold {
+        solver = solver.with_nested_min_elements(usize::MAX);
+    }
+    let rubber = Material::new(2.5e6, 0.5).expect("material");
+    measure(&format!("road-like 2^20{}", if cold { " cold" } else { "" }), n, 1, 2, || {
+        let mut workspace = Workspace::default();
+        let sol = solver.solve_in(&mut workspace, &heights, rubber, 2e5).expect("solve");
+        (vec![sol], workspace.fft_pairs(), workspace.fft_pairs_equivalent())
+    })
+}
+
 fn main() {
     // One thread: the solver's vector passes go parallel above 2^17 points (`solver::reduce`), and
     // this thread's CPU clock would not see work done on others.
@@ -247,6 +271,12 @@ fn run() {
         if large || only == Some("20") {
             sizes.push(20);
         }
+    }
+    if only == Some("road20") {
+        if cold {
+            cases.push(road_like_2_20(true));
+        }
+        cases.push(road_like_2_20(false));
     }
     for &log2_n in &sizes {
         let repeats = if log2_n >= 20 {
