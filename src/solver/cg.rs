@@ -48,14 +48,12 @@ const MAX_RUN_PAIRS: usize = 2_000_000_000;
 ///
 /// 256 vectors up to N = 2^16, N / 256 beyond, never fewer than one per three runs (with fewer,
 /// 65-75 iterations at 2^16 and 160-190 at 2^18 on self-affine profiles, against 56-61 and
-/// 72-73), at most N / 16 and 512 below N = 2^19, 1,024 from there on (factoring E costs
-/// dim^3 / 3, and every sweep that moves the set factors it again: with nested starts most
-/// sweeps move a few points only). Self-affine, seeds 0-2, one thread (issue 18, fourth pass):
-/// a cap of 2,048 took 1,040-1,180 pairs-equivalent at 2^18 (cold or nested), 1,024 510-730 and
-/// 512 470-800; at 2^20 (seed 1, nested) 2,048 took 894-946, 1,024 713-754 and 512 957-973.
-/// Rough and precise sweeps share it, so a precise sweep on a set left unchanged reuses the
-/// space: a larger precise space (1,024 to 2,048) saved at most one iteration for a fresh
-/// assembly and factorisation (8-10 % at 2^16).
+/// 72-73), at most N / 16 and 512 below N = 2^19, 1,024 from there (E is factored again, dim^3 / 3,
+/// by every sweep that moves the set, and after a nested start most move a few points only; issue
+/// 18 fourth pass, pairs-equivalent: 2^18 cap 2,048 1,040-1,180, 1,024 510-730, 512 470-800; 2^20
+/// nested, 2,048 894-946, 1,024 713-754, 512 957-973). Rough and precise sweeps share it, so a
+/// precise sweep on a set left unchanged reuses the space: a larger precise space (1,024 to 2,048)
+/// saved at most one iteration for a fresh assembly and factorisation (8-10 % at 2^16).
 fn coarse_dim(n: usize, runs: usize) -> usize {
     const LARGE_DIM_N: usize = 1 << 19;
     let max_dim = if n >= LARGE_DIM_N { 1024 } else { 512 };
