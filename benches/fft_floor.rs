@@ -17,10 +17,16 @@
 //! * `self-affine 2^16` (and 2^20 with `--large`): Hurst 0.8, rms slope 0.1, L = 1, E* = 1,
 //!   P = 0.0105, cutoff 0.25, seed 1, tol 1e-8, cold start. Targets: 150 and 600 pairs.
 //!
+//! Cold self-affine solves of 2^14 points or more start from the nested guess
+//! (`solver::nested`): "iterations" and "pairs applied" are the finest level's, "incl coarse" adds
+//! the coarser levels' pairs weighted N_level / N (the time per solve includes them).
+//!
 //! Run: `cargo bench --bench fft_floor` (add `-- --large` for 2^20, about a minute or more;
-//! `-- --only road|16|20` for one case, with `--profile` to leave out the FFT-pair timings, e.g.
-//! under `perf record`; `--baseline` runs the solver's own loops in their baseline (SSE2) copies,
-//! not the AVX2 ones chosen at run time).
+//! `-- --only road|16|20|road20` for one case (`road20`: a 52 m road-like profile at 0.05 mm),
+//! with `--profile` to leave out the FFT-pair timings, e.g. under `perf record`; `--baseline`
+//! runs the solver's own loops in their baseline (SSE2) copies, not the AVX2 ones chosen at run
+//! time; `--sizes 16,18,20` and `--seeds 0,1,2` for self-affine cases of those sizes and seeds;
+//! `--cold` adds each self-affine case without the nested guess, in the same run).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -110,6 +116,8 @@ struct Measured {
     solves: usize,
     iterations: f64,
     pairs_applied: f64,
+    /// Pairs applied at N plus those of the coarser levels of nested solves, weighted N_level / N.
+    pairs_equivalent: f64,
     /// Best time per solve and best FFT-pair time (s).
     time: f64,
     pair: f64,
@@ -125,24 +133,24 @@ struct Measured {
 /// workspaces applied) `repeats` times, each
 /// followed by an FFT-pair timing of the same N, so that every ratio compares two times taken
 /// under the same machine load.
-fn measure(name: &str, n: usize, solves: usize, repeats: usize, mut run: impl FnMut() -> (Vec<ContactSolution>, u64)) -> Measured {
+fn measure(name: &str, n: usize, solves: usize, repeats: usize, mut run: impl FnMut() -> (Vec<ContactSolution>, u64, f64)) -> Measured {
     let timer = PairTimer::new(n);
     // `--profile`: the solves only, no FFT-pair timings between them (for `perf record`).
     let profile = std::env::args().any(|a| a == "--profile");
     let (mut best, mut best_pair, mut ratios) = (f64::INFINITY, f64::INFINITY, Vec::new());
-    let mut last = (Vec::new(), 0);
+    let mut last = (Vec::new(), 0, 0.0);
     for _ in 0..repeats {
         let (clock, start) = Clock::start();
-        let (sols, pairs) = run();
+        let (sols, pairs, equivalent) = run();
         let per_solve = clock.elapsed(start) / solves as f64;
         let pair = if profile { f64::NAN } else { timer.time(5) };
         ratios.push(per_solve / pair);
         best = best.min(per_solve);
         best_pair = best_pair.min(pair);
-        last = (sols, pairs);
+        last = (sols, pairs, equivalent);
     }
     ratios.sort_by(f64::total_cmp);
-    let (sols, pairs) = last;
+    let (sols, pairs, equivalent) = last;
     assert_eq!(sols.len(), solves);
     Measured {
         name: name.to_string(),
@@ -150,6 +158,7 @@ fn measure(name: &str, n: usize, solves: usize, repeats: usize, mut run: impl Fn
         solves,
         iterations: sols.iter().map(|s| s.iterations).sum::<usize>() as f64 / solves as f64,
         pairs_applied: pairs as f64 / solves as f64,
+        pairs_equivalent: equivalent / solves as f64,
         time: best,
         pair: best_pair,
         ratio: ratios[ratios.len() / 2],
@@ -180,26 +189,49 @@ fn road(repeats: usize) -> Measured {
                 out.push(sol);
             }
         }
-        (out, workspace.fft_pairs())
+        (out, workspace.fft_pairs(), workspace.fft_pairs_equivalent())
     })
 }
 
-fn self_affine_case(log2_n: u32, repeats: usize) -> Measured {
+fn self_affine_case(log2_n: u32, repeats: usize, seed: u64, cold: bool) -> Measured {
     let n = 1usize << log2_n;
-    let heights = self_affine(n, 1.0, HURST, RMS_SLOPE, CUTOFF, 1);
-    let solver =
+    let heights = self_affine(n, 1.0, HURST, RMS_SLOPE, CUTOFF, seed);
+    let mut solver =
         ContactSolver::new(n, 1.0 / n as f64, SolverOptions { tol: 1e-8, max_iterations: 20_000, ..Default::default() }).expect("solver");
+    if cold {
+        solver = solver.with_nested_min_elements(usize::MAX);
+    }
     let rubber = Material::new(0.75, 0.5).expect("E* = 1");
     // Below 2^18 two solves per repetition (a fresh workspace each), so that it lasts about 0.4 s.
     let solves = if log2_n < 18 { 2 } else { 1 };
-    measure(&format!("self-affine 2^{log2_n}"), n, solves, repeats, || {
-        let (mut sols, mut pairs) = (Vec::new(), 0);
+    let name = format!("self-affine 2^{log2_n} s{seed}{}", if cold { " cold" } else { "" });
+    measure(&name, n, solves, repeats, || {
+        let (mut sols, mut pairs, mut equivalent) = (Vec::new(), 0, 0.0);
         for _ in 0..solves {
             let mut workspace = Workspace::default();
             sols.push(solver.solve_in(&mut workspace, &heights, rubber, 0.0105).expect("solve"));
             pairs += workspace.fft_pairs();
+            equivalent += workspace.fft_pairs_equivalent();
         }
-        (sols, pairs)
+        (sols, pairs, equivalent)
+    })
+}
+
+/// `--only road20`: a road-like profile at N = 2^20 (README "Performance"): 52.4 m at 0.05 mm,
+/// texture down to 3.2 mm (cutoff N / 64), Hurst 0.8, rms slope 0.1, E = 2.5 MPa (nu 0.5),
+/// P = 0.2 MPa, tol 1e-8, cold start, seed 0.
+fn road_like_2_20(cold: bool) -> Measured {
+    let (n, dx) = (1usize << 20, 5e-5);
+    let heights = self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, 1.0 / 64.0, 0);
+    let mut solver = ContactSolver::new(n, dx, SolverOptions { tol: 1e-8, max_iterations: 20_000, ..Default::default() }).expect("solver");
+    if cold {
+        solver = solver.with_nested_min_elements(usize::MAX);
+    }
+    let rubber = Material::new(2.5e6, 0.5).expect("material");
+    measure(&format!("road-like 2^20{}", if cold { " cold" } else { "" }), n, 1, 2, || {
+        let mut workspace = Workspace::default();
+        let sol = solver.solve_in(&mut workspace, &heights, rubber, 2e5).expect("solve");
+        (vec![sol], workspace.fft_pairs(), workspace.fft_pairs_equivalent())
     })
 }
 
@@ -220,23 +252,69 @@ fn run() {
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
     let wanted = |name: &str| only.map_or(true, |o| o == name);
     let mut cases = Vec::new();
-    if wanted("road") {
+    if wanted("road") && !args.iter().any(|a| a == "--sizes") {
         cases.push(road(7));
     }
-    if wanted("16") {
-        cases.push(self_affine_case(16, 7));
+    // `--seeds 0,1,2` (default 1), `--cold` adds each self-affine case without the nested guess
+    // (the same run), `--sizes 16,18` any sizes (2^k; default 16, and 20 with --large).
+    let list = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1))
+            .map(|v| v.split(',').map(|x| x.parse::<u64>().expect("a number")).collect::<Vec<_>>())
+    };
+    let seeds = list("--seeds").unwrap_or_else(|| vec![1]);
+    let cold = args.iter().any(|a| a == "--cold");
+    let mut sizes: Vec<u32> = Vec::new();
+    if let Some(s) = list("--sizes") {
+        sizes.extend(s.iter().map(|&k| k as u32));
+    } else {
+        if wanted("16") {
+            sizes.push(16);
+        }
+        if large || only == Some("20") {
+            sizes.push(20);
+        }
     }
-    if large || only == Some("20") {
-        cases.push(self_affine_case(20, 2));
+    if only == Some("road20") {
+        if cold {
+            cases.push(road_like_2_20(true));
+        }
+        cases.push(road_like_2_20(false));
+    }
+    for &log2_n in &sizes {
+        let repeats = if log2_n >= 20 {
+            2
+        } else if log2_n >= 18 {
+            3
+        } else {
+            7
+        };
+        for &seed in &seeds {
+            if cold {
+                cases.push(self_affine_case(log2_n, repeats, seed, true));
+            }
+            cases.push(self_affine_case(log2_n, repeats, seed, false));
+        }
     }
     println!("solver vector loops: {}", if roadtex::solver::wide_vectors() { "AVX2 (chosen at run time)" } else { "baseline x86-64" });
     println!(
-        "{:<24} {:>8} {:>7} {:>10} {:>12} {:>10} {:>12} {:>10} {:>13} {:>9}",
-        "case", "N", "solves", "iterations", "time/solve", "FFT pair", "pairs/solve", "best/best", "pairs applied", "residual"
+        "{:<28} {:>8} {:>7} {:>10} {:>12} {:>10} {:>12} {:>10} {:>13} {:>11} {:>9}",
+        "case",
+        "N",
+        "solves",
+        "iterations",
+        "time/solve",
+        "FFT pair",
+        "pairs/solve",
+        "best/best",
+        "pairs applied",
+        "incl coarse",
+        "residual"
     );
     for m in &cases {
         println!(
-            "{:<24} {:>8} {:>7} {:>10.1} {:>9.3} ms {:>7.2} us {:>12.0} {:>10.0} {:>13.1} {:>9.1e}{}",
+            "{:<28} {:>8} {:>7} {:>10.1} {:>9.3} ms {:>7.2} us {:>12.0} {:>10.0} {:>13.1} {:>11.1} {:>9.1e}{}",
             m.name,
             m.n,
             m.solves,
@@ -246,6 +324,7 @@ fn run() {
             m.ratio,
             m.best_ratio,
             m.pairs_applied,
+            m.pairs_equivalent,
             m.worst_residual,
             if m.converged { "" } else { "  NOT CONVERGED" }
         );

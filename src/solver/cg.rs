@@ -48,12 +48,16 @@ const MAX_RUN_PAIRS: usize = 2_000_000_000;
 ///
 /// 256 vectors up to N = 2^16, N / 256 beyond, never fewer than one per three runs (with fewer,
 /// 65-75 iterations at 2^16 and 160-190 at 2^18 on self-affine profiles, against 56-61 and
-/// 72-73), at most N / 16 and 2,048 (factoring E costs dim^3 / 3). Rough and precise sweeps share
-/// it, so a precise sweep on a set left unchanged reuses the space: a larger precise space (1,024
-/// to 2,048) saved at most one iteration for a fresh assembly and factorisation (8-10 % at 2^16).
+/// 72-73), at most N / 16 and 512 below N = 2^19, 1,024 from there (E is factored again, dim^3 / 3,
+/// by every sweep that moves the set, and after a nested start most move a few points only; issue
+/// 18 fourth pass, pairs-equivalent: 2^18 cap 2,048 1,040-1,180, 1,024 510-730, 512 470-800; 2^20
+/// nested, 2,048 894-946, 1,024 713-754, 512 957-973). Rough and precise sweeps share it, so a
+/// precise sweep on a set left unchanged reuses the space: a larger precise space (1,024 to 2,048)
+/// saved at most one iteration for a fresh assembly and factorisation (8-10 % at 2^16).
 fn coarse_dim(n: usize, runs: usize) -> usize {
-    const MAX_DIM: usize = 2048;
-    (n / 256).clamp(256, MAX_DIM).max(runs / 3).min((n / 16).max(32)).min(MAX_DIM)
+    const LARGE_DIM_N: usize = 1 << 19;
+    let max_dim = if n >= LARGE_DIM_N { 1024 } else { 512 };
+    (n / 256).clamp(256, max_dim).max(runs / 3).min((n / 16).max(32)).min(max_dim)
 }
 
 /// An update changing more than 1 / UNSETTLED of the set marks it as still moving: the next space,
@@ -223,16 +227,28 @@ impl<Op: Compliance> Context<'_, Op> {
         let n = self.z.len();
         let target_sum = self.target_sum;
         let mut gap = vec![0.0; n];
-        let (mut p, warm) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
-            // A neighbouring solution (the same profile under another modulus): its contact set is
-            // close to this one, so the sweeps start from it with its pressure scaled to this load.
+        let (mut p, warm, known) = match initial.filter(|q| q.len() == n && q.iter().any(|&x| x > 0.0)) {
+            // A neighbouring solution (the same profile under another modulus, or the coarser
+            // level's of a nested solve): its contact set is close to this one, so the sweeps start
+            // from it with its pressure scaled to this load.
             Some(q) => {
                 let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
                 let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
                 for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
                     *m = pi > 0.0;
                 }
-                (p, 0)
+                // A guess that already meets tol is returned as it is, before any coarse space is
+                // assembled (seconds at N = 2^19). Else the product is the first sweep's, bitwise.
+                let w = &mut *self.w;
+                self.op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                let mut trial = w.mask.clone();
+                if update_set(self.z, &p, &mut trial, &mut gap, &w.displacement) == 0 {
+                    let res = residual(&p, &gap, self.scale);
+                    if res <= self.tol {
+                        return Outcome { pressure: p, gap, iterations: 0, residual: res, converged: true };
+                    }
+                }
+                (p, 0, true)
             }
             None => {
                 // A few bound-constrained CG steps from full contact shed most of the points that are
@@ -245,11 +261,11 @@ impl<Op: Compliance> Context<'_, Op> {
                 for i in 0..n {
                     self.w.mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
                 }
-                (start.pressure, start.iterations)
+                (start.pressure, start.iterations, false)
             }
         };
         let max_iterations = max_iterations - warm;
-        match self.sweeps(&mut p, &mut gap, max_iterations) {
+        match self.sweeps(&mut p, &mut gap, max_iterations, known) {
             Ok((iterations, res)) => Outcome { pressure: p, gap, iterations: iterations + warm, residual: res, converged: true },
             Err(iterations) => {
                 let iterations = iterations + warm;
@@ -268,13 +284,13 @@ impl<Op: Compliance> Context<'_, Op> {
 
     /// The active-set sweeps from the set in `w.mask`: Ok((iterations, residual)) when converged,
     /// Err(iterations) when they did not settle.
-    fn sweeps(&mut self, p: &mut [f64], gap: &mut [f64], max_iterations: usize) -> std::result::Result<(usize, f64), usize> {
+    fn sweeps(&mut self, p: &mut [f64], gap: &mut [f64], max_iterations: usize, known: bool) -> std::result::Result<(usize, f64), usize> {
         let n = self.z.len();
         let mut iterations = 0usize;
         let mut rough = true;
         let mut deflate = true;
         // Whether w.displacement holds C p for the current p (tracked, not a fresh product).
-        let mut known = false;
+        let mut known = known;
         // Whether that C p is a fresh product (the settled-set check just made one).
         let mut fresh = false;
         let mut leaving: Vec<(usize, f64)> = Vec::new();
@@ -369,7 +385,7 @@ impl<Op: Compliance> Context<'_, Op> {
         }
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
-        if let Some(current) = current.filter(|c| c.is_same(&islands, dim)) {
+        if let Some(current) = current.filter(|c| c.is_same(&islands, dim, self.groups.as_ref())) {
             return Some(current);
         }
         // CoarseSpace::new relies on: `islands` being exactly the runs of the mask it is given

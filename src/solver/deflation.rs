@@ -311,6 +311,8 @@ pub(crate) struct CoarseSpace {
     runs: Vec<(usize, usize)>,
     /// Group g holds runs[bounds[g]..bounds[g + 1]].
     bounds: Vec<usize>,
+    /// `bounds` with the last group too (left out of the space when every run is covered).
+    all_bounds: Vec<usize>,
     weights: Vec<f64>,
     /// Lower-triangular Cholesky factor L of E (row-major, dim x dim): faer factors, the
     /// per-iteration solves with one right-hand side are done here (cheaper at these sizes).
@@ -397,9 +399,10 @@ impl CoarseSpace {
             *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix });
         }
         let factor = factor?;
+        let all_bounds = bounds.clone();
         let mut bounds = bounds;
         bounds.truncate(columns + 1);
-        Some(Self { runs, bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete, equal_groups })
+        Some(Self { runs, bounds, all_bounds, weights: weights[..columns].to_vec(), factor, max_dim, complete, equal_groups })
     }
 
     /// Whether only the largest runs are kept (then C 1_A is needed to build the space).
@@ -412,9 +415,20 @@ impl CoarseSpace {
         Self::truncates(runs, max_dim, max_run_pairs)
     }
 
-    /// Whether `new(runs, .., max_dim, ..)` would build this very space again.
-    pub fn is_same(&self, runs: &[(usize, usize)], max_dim: usize) -> bool {
-        self.complete && self.equal_groups && self.runs == runs && (self.max_dim == max_dim || runs.len() <= max_dim.min(self.max_dim))
+    /// Whether `new(runs, .., max_dim, cache)` would build this very space again: one of equal
+    /// groups, or one whose groups `cache` (this solve's, see [`GroupCache`]) holds for these very
+    /// runs (the regrouping then finds the same bounds and no changed row, so the same E).
+    pub fn is_same(&self, runs: &[(usize, usize)], max_dim: usize, cache: Option<&GroupCache>) -> bool {
+        let cached = || cache.is_some_and(|c| c.max_dim == max_dim && c.runs == runs && c.bounds == self.bounds_of_groups());
+        self.complete
+            && self.runs == runs
+            && (self.max_dim == max_dim || runs.len() <= max_dim.min(self.max_dim))
+            && (self.equal_groups || (self.max_dim == max_dim && cached()))
+    }
+
+    /// The bounds of every group (the space keeps one group fewer when all runs are covered).
+    fn bounds_of_groups(&self) -> &[usize] {
+        &self.all_bounds
     }
 
     pub fn dim(&self) -> usize {

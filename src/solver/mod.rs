@@ -14,6 +14,7 @@ pub mod cg;
 mod deflation;
 pub mod direct;
 mod factor;
+pub mod nested;
 mod reduce;
 mod wide;
 
@@ -234,6 +235,11 @@ pub struct ContactSolver {
     model: Model,
     /// Interval sums of the kernel for the CG solver's coarse space (None for the direct solver).
     pair_sums: Option<PairSums>,
+    /// Cold CG solves of at least this many points start from the nested guess ([`nested`]).
+    nested_min: usize,
+    /// The solver of the next coarser level (N / 2, dx * 2, the tolerance [`nested::NESTED_TOL`]),
+    /// built on first use.
+    coarser: std::sync::OnceLock<Box<ContactSolver>>,
 }
 
 enum Model {
@@ -246,6 +252,10 @@ enum Model {
 #[derive(Default)]
 pub struct Workspace {
     inner: WorkspaceInner,
+    /// The workspace of the next coarser level of a nested solve.
+    coarser: Option<Box<Workspace>>,
+    /// Levels below this one the last solve in this workspace went through (0: none).
+    levels: usize,
 }
 
 impl Workspace {
@@ -257,6 +267,25 @@ impl Workspace {
             WorkspaceInner::Periodic(w) => PeriodicCompliance::fft_pairs(w.scratch()),
             WorkspaceInner::Finite(w) => FiniteCompliance::fft_pairs(w.scratch()),
         }
+    }
+
+    /// [`Workspace::fft_pairs`] plus those of the coarser levels of nested solves, each counted as
+    /// its share of a pair of this size (N_level / N): what the benchmarks compare with the floor.
+    pub fn fft_pairs_equivalent(&self) -> f64 {
+        let mut total = self.fft_pairs() as f64;
+        let (mut level, mut weight) = (self.coarser.as_deref(), 1.0);
+        while let Some(w) = level {
+            weight *= 0.5;
+            total += weight * w.fft_pairs() as f64;
+            level = w.coarser.as_deref();
+        }
+        total
+    }
+
+    /// The coarser levels the last solve in this workspace started from (0: a cold or warm start
+    /// without nesting, see [`nested`]).
+    pub fn nested_levels(&self) -> usize {
+        self.levels
     }
 }
 
@@ -293,7 +322,28 @@ impl ContactSolver {
             Model::Periodic(op) => PairSums::new(n, |d| op.kernel_at(d)),
             Model::Finite(op) => PairSums::new(n, |d| op.kernel_at(d)),
         });
-        Ok(Self { n, dx, options, model, pair_sums })
+        Ok(Self { n, dx, options, model, pair_sums, nested_min: nested::NESTED_MIN_ELEMENTS, coarser: std::sync::OnceLock::new() })
+    }
+
+    /// The same solver with nested initial guesses for cold CG solves of at least `min_elements`
+    /// points (default [`nested::NESTED_MIN_ELEMENTS`]; `usize::MAX` never nests).
+    pub fn with_nested_min_elements(mut self, min_elements: usize) -> Self {
+        self.nested_min = min_elements;
+        self.coarser = std::sync::OnceLock::new();
+        self
+    }
+
+    /// The solver of the next coarser level, when a cold solve nests.
+    fn coarser(&self) -> Option<&ContactSolver> {
+        if self.options.method != Method::ConjugateGradient || !nested::nests(self.n, self.nested_min) {
+            return None;
+        }
+        let level = self.coarser.get_or_init(|| {
+            let options = SolverOptions { tol: self.options.tol.max(nested::NESTED_TOL), ..self.options };
+            let solver = ContactSolver::new(self.n / 2, 2.0 * self.dx, options).expect("a valid solver at half the size");
+            Box::new(solver.with_nested_min_elements(self.nested_min))
+        });
+        Some(level)
     }
 
     pub fn len(&self) -> usize {
@@ -335,33 +385,6 @@ impl ContactSolver {
             return invalid(format!("heights has {} points, the solver was built for {}", heights.len(), self.n));
         }
         validate_problem(heights, self.dx, mean_pressure)?;
-        match &self.model {
-            Model::Periodic(op) => {
-                if !matches!(&workspace.inner, WorkspaceInner::Periodic(w) if w.len() == self.n) {
-                    workspace.inner = WorkspaceInner::Periodic(cg::Work::new(op));
-                }
-                let WorkspaceInner::Periodic(work) = &mut workspace.inner else { unreachable!() };
-                self.solve_with(op, work, heights, material, mean_pressure, initial_pressure)
-            }
-            Model::Finite(op) => {
-                if !matches!(&workspace.inner, WorkspaceInner::Finite(w) if w.len() == self.n) {
-                    workspace.inner = WorkspaceInner::Finite(cg::Work::new(op));
-                }
-                let WorkspaceInner::Finite(work) = &mut workspace.inner else { unreachable!() };
-                self.solve_with(op, work, heights, material, mean_pressure, initial_pressure)
-            }
-        }
-    }
-
-    fn solve_with<Op: Compliance>(
-        &self,
-        op: &Op,
-        work: &mut cg::Work<Op::Scratch>,
-        heights: &[f64],
-        material: Material,
-        mean_pressure: f64,
-        initial_pressure: Option<&[f64]>,
-    ) -> Result<ContactSolution> {
         let e_star = material.plane_strain_modulus();
         // Work in pressure / E* (a strain) and in heights relative to the highest point, so that
         // absolute offsets (a profile at 0.1 m) cost no digits.
@@ -370,21 +393,19 @@ impl ContactSolver {
         let strain = mean_pressure / e_star;
         check_strain(strain, self.dx * self.n as f64)?;
         let scale = height_scale(&z, strain, self.dx);
-        let outcome = match self.options.method {
-            Method::ConjugateGradient => {
-                let pair_sums = Some(self.pair_sums.as_ref().expect("built for the CG method"));
-                let initial: Option<Vec<f64>> = initial_pressure.map(|q| q.iter().map(|&x| x / e_star).collect());
-                let problem = cg::Problem {
-                    z: &z,
-                    mean_strain: strain,
-                    scale,
-                    tol: self.options.tol,
-                    max_iterations: self.options.max_iterations,
-                    warm_up: None,
+        workspace.levels = 0;
+        let outcome = match (self.options.method, &self.model) {
+            (Method::ConjugateGradient, _) => {
+                // A warm start keeps its guess; a cold one starts from the coarser levels when N
+                // is large enough (see [`nested`]).
+                let initial: Option<Vec<f64>> = match initial_pressure {
+                    Some(q) => Some(q.iter().map(|&x| x / e_star).collect()),
+                    None => self.nested_guess(workspace, &z, strain),
                 };
-                cg::solve(op, pair_sums, &problem, initial.as_deref(), work)
+                self.solve_cg(workspace, &z, strain, scale, initial.as_deref())
             }
-            Method::Direct => direct::solve(op, &z, strain, scale, self.options.tol)?,
+            (Method::Direct, Model::Periodic(op)) => direct::solve(op, &z, strain, scale, self.options.tol)?,
+            (Method::Direct, Model::Finite(op)) => direct::solve(op, &z, strain, scale, self.options.tol)?,
         };
         let pressure = outcome.pressure.iter().map(|&q| q * e_star).collect();
         let envelope = outcome
@@ -404,6 +425,51 @@ impl ContactSolver {
         };
         check_solution(&solution, mean_pressure)?;
         Ok(solution)
+    }
+
+    /// The CG solve of heights `z` (m, relative to the top) under mean strain P / E*, to this
+    /// solver's tolerance, from `initial` (pressure / E*) when given, in `workspace`.
+    fn solve_cg(&self, workspace: &mut Workspace, z: &[f64], strain: f64, scale: f64, initial: Option<&[f64]>) -> Outcome {
+        let pair_sums = Some(self.pair_sums.as_ref().expect("built for the CG method"));
+        let problem = cg::Problem {
+            z,
+            mean_strain: strain,
+            scale,
+            tol: self.options.tol,
+            max_iterations: self.options.max_iterations,
+            warm_up: None,
+        };
+        match &self.model {
+            Model::Periodic(op) => {
+                if !matches!(&workspace.inner, WorkspaceInner::Periodic(w) if w.len() == self.n) {
+                    workspace.inner = WorkspaceInner::Periodic(cg::Work::new(op));
+                }
+                let WorkspaceInner::Periodic(work) = &mut workspace.inner else { unreachable!() };
+                cg::solve(op, pair_sums, &problem, initial, work)
+            }
+            Model::Finite(op) => {
+                if !matches!(&workspace.inner, WorkspaceInner::Finite(w) if w.len() == self.n) {
+                    workspace.inner = WorkspaceInner::Finite(cg::Work::new(op));
+                }
+                let WorkspaceInner::Finite(work) = &mut workspace.inner else { unreachable!() };
+                cg::solve(op, pair_sums, &problem, initial, work)
+            }
+        }
+    }
+
+    /// The nested initial guess (pressure / E*) for a cold solve of `z` (m, relative to the top)
+    /// under mean strain P / E*: the coarser level's solution (itself started from the levels
+    /// below it) prolonged to this one; None when this level does not nest.
+    fn nested_guess(&self, workspace: &mut Workspace, z: &[f64], strain: f64) -> Option<Vec<f64>> {
+        let coarser = self.coarser()?;
+        let z_coarse = nested::restrict(z);
+        let scale = height_scale(&z_coarse, strain, coarser.dx);
+        let below = workspace.coarser.get_or_insert_with(Default::default);
+        below.levels = 0;
+        let guess = coarser.nested_guess(below, &z_coarse, strain);
+        let outcome = coarser.solve_cg(below, &z_coarse, strain, scale, guess.as_deref());
+        workspace.levels = 1 + below.levels;
+        Some(nested::prolong(&outcome.pressure))
     }
 }
 
