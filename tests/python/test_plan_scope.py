@@ -1,5 +1,6 @@
 """The job's plan (its error-budget pilot of line runs) is stated only where it applies: surface
-runs carry none of its estimates; a pilot that could not run is recorded, not dropped."""
+runs carry their own areal pilot's estimates, none of the line pilot's; a pilot that could not run
+is recorded, not dropped."""
 
 from __future__ import annotations
 
@@ -31,24 +32,45 @@ def mixed_manifest(folder: Path) -> pl.DataFrame:
                          "pavement": ["dense_asphalt"] * 2, "device": ["laser"] * 2})
 
 
-def test_surface_runs_carry_none_of_the_line_pilots_estimates(tmp_path: Path) -> None:
+def test_surface_runs_carry_their_own_estimates_not_the_line_pilots(tmp_path: Path) -> None:
     out = tmp_path / "out"
     summary = process(mixed_manifest(tmp_path), out, OPTIONS, quiet=True)
     assert summary.failed == 0
     runs = pl.read_parquet(out / "runs.parquet")
     bands = pl.read_parquet(out / "bands.parquet").filter(pl.col("reported"))
     line, surface = (runs.filter(pl.col("run_id") == rid) for rid in ("line", "surface"))
-    # the line run has the pilot's numbers (so this test can fail) ...
+    # the line run has the pilot's numbers ...
     assert all(line[c][0] is not None for c in PLAN_RUN_COLUMNS)
-    assert bands.filter(pl.col("run_id") == "line")["level_error_db"].null_count() == 0
-    # ... the surface run none, in any of its rows, line-model rows included
-    assert all(surface[c][0] is None for c in PLAN_RUN_COLUMNS)
+    line_errors = bands.filter(pl.col("run_id") == "line").group_by("band").agg(pl.col("level_error_db").first())
+    assert line_errors["level_error_db"].null_count() == 0
+    # ... the surface run its own areal pilot's (runs/surface/level_errors.parquet), per model and
+    # band, in every row, line-model rows included
+    own = pl.read_parquet(out / "runs" / "surface" / "level_errors.parquet")
+    assert set(own["model"]) == {"line", "areal"} and own["level_error_db"].null_count() == 0
     surface_bands = bands.filter(pl.col("run_id") == "surface")
-    assert set(surface_bands["model"]) == {"line", "areal"}
-    assert surface_bands["level_error_db"].null_count() == surface_bands.height > 0
+    joined = surface_bands.join(own, on=["model", "band"], how="left", suffix="_own")
+    assert joined["level_error_db_own"].null_count() == 0
+    np.testing.assert_array_equal(joined["level_error_db"].to_numpy(), joined["level_error_db_own"].to_numpy())
+    shared = own.filter(pl.col("model") == "line").join(line_errors, on="band", suffix="_pilot")
+    assert shared.height > 0 and (shared["level_error_db"] != shared["level_error_db_pilot"]).any()
+    assert surface["worst_level_error_db"][0] == own.filter(pl.col("in_budget"))["level_error_db"].max()
+    assert surface["within_budget"][0] == (surface["worst_level_error_db"][0] <= OPTIONS.error_budget_db)
+    assert surface["speedup"][0] == own["speedup"][0] != line["speedup"][0]
+    assert surface["time_saved_fraction"][0] == pytest.approx(1 - 1 / own["speedup"][0], rel=1e-12)
     # the settings it really used: its own spacing, the job's tolerance
     assert surface["dx_used"][0] == 1e-3 and line["dx_used"][0] != 1e-3
     assert surface["tol_used"][0] == line["tol_used"][0]
+
+
+def test_without_a_budget_surface_runs_have_no_estimate(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    options = ProcessingOptions(youngs_moduli=(2e6, 1e7), segment_length=0.128, tol=1e-8, error_budget_db=None)
+    assert process(mixed_manifest(tmp_path), out, options, quiet=True).failed == 0
+    assert not (out / "runs" / "surface" / "level_errors.parquet").exists()
+    runs = pl.read_parquet(out / "runs.parquet")
+    assert all(runs[c].null_count() == runs.height for c in PLAN_RUN_COLUMNS)
+    assert pl.read_parquet(out / "bands.parquet")["level_error_db"].null_count() > 0
+    assert pl.read_parquet(out / "bands.parquet")["level_error_db"].drop_nulls().len() == 0
 
 
 def test_a_pilot_that_fails_is_recorded_and_warned_about(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -39,8 +39,12 @@ def test_surface_run_gives_line_and_areal_rows(tmp_path):
     for model in ("line", "areal"):
         by_e = seg.filter(pl.col("model") == model).group_by("youngs_modulus").agg(pl.col("contact_fraction").mean()).sort("youngs_modulus")
         assert by_e["contact_fraction"][0] > by_e["contact_fraction"][1]
-    # areal rows carry no error estimate of the line pilot
-    assert bands.filter(pl.col("model") == "areal")["level_error_db"].null_count() == bands.filter(pl.col("model") == "areal").height
+    # both models' rows carry the run's own (areal pilot's) error estimate in every reported band
+    # and none where no level is reported
+    for model in ("line", "areal"):
+        rows = bands.filter(pl.col("model") == model)
+        assert rows.filter(pl.col("reported"))["level_error_db"].null_count() == 0
+        assert rows.filter(~pl.col("reported"))["level_error_db"].null_count() == rows.filter(~pl.col("reported")).height
     assert tables["runs"]["segments"][0] == 2
 
 

@@ -30,6 +30,7 @@ from roadtex.archive.schemas import (
     RUN_RUN_SCHEMA,
     RUN_SCHEMA,
     SEGMENT_SCHEMA,
+    SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
     TABLES,
     VON_MEIER_SCHEMA,
@@ -134,8 +135,9 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
-    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", *COMPARISON_TABLES):
-        if status["state"] != "ok" or (stale == "profiles" and not options.keep_profiles):
+    for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", "level_errors",
+                  *COMPARISON_TABLES):
+        if status["state"] != "ok" or tables.get(stale) is None:  # failed, or not made this time
             (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
     write_json(run_dir / STATUS_FILE, status)
     return {**status, "skipped": False}
@@ -228,6 +230,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": [],
                                     **{name: [] for name in COMPARISON_TABLES}}
     errors: list[dict[str, Any]] = []
+    surface_error_files: list[Path] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
         status = read_status(run_dir)
@@ -250,18 +253,23 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
                     write_atomically(run_dir / f"{name}.parquet", lambda p, t=frame: t.write_parquet(p, statistics=True))
         if (run_dir / "surface_example.parquet").exists():
             parts["surface_examples"].append(run_dir / "surface_example.parquet")
+        if (run_dir / "level_errors.parquet").exists():
+            surface_error_files.append(run_dir / "level_errors.parquet")
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
                "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     estimates = run_estimates(manifest, parts["runs"], plan)
-    # the plan (its pilot, error estimates and speed-up) covers line runs only
+    # the plan (its pilot, error estimates and speed-up) covers line runs only; surface runs have
+    # their own areal pilot's
     surface_ids = [run["run_id"] for run in manifest.iter_rows(named=True) if is_surface_run(run)]
+    own = surface_estimates(surface_error_files, options.error_budget_db)
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
         metadata = parquet_metadata(TABLES[name])
         if files:
-            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids).select(
+            query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids,
+                              own).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
             write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
         else:
@@ -315,32 +323,56 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
     return bands, runs
 
 
+def surface_estimates(files: list[Path], budget_db: float | None) -> tuple[pl.DataFrame, pl.DataFrame]:
+    """The surface runs' own error estimates (their ``level_errors.parquet``, from the areal pilot):
+    per (run, model, band) ``surface_error_db``, and per run ``surface_worst_db`` (the largest in
+    the budget bands, both models), ``surface_within`` and ``surface_speedup``."""
+    bands_schema = {"run_id": pl.String, "model": pl.String, "band": pl.Int64, "surface_error_db": pl.Float64}
+    runs_schema = {"run_id": pl.String, "surface_worst_db": pl.Float64, "surface_within": pl.Boolean,
+                   "surface_speedup": pl.Float64}
+    if not files or budget_db is None:
+        return pl.DataFrame(schema=bands_schema), pl.DataFrame(schema=runs_schema)
+    table = pl.read_parquet(files, schema=SURFACE_ERROR_SCHEMA)
+    bands = table.select("run_id", "model", "band", pl.col("level_error_db").alias("surface_error_db"))
+    runs = table.group_by("run_id", maintain_order=True).agg(
+        pl.col("level_error_db").filter(pl.col("in_budget")).max().fill_null(0.0).alias("surface_worst_db"),
+        pl.col("speedup").first().alias("surface_speedup"))
+    runs = runs.with_columns((pl.col("surface_worst_db") <= budget_db).alias("surface_within"))
+    return bands.cast(bands_schema), runs.select(list(runs_schema)).cast(runs_schema)  # type: ignore[arg-type]
+
+
 def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
-              estimates: tuple[pl.DataFrame, pl.DataFrame], surface_ids: Sequence[str] = ()) -> pl.LazyFrame:
+              estimates: tuple[pl.DataFrame, pl.DataFrame], surface_ids: Sequence[str] = (),
+              surface_own: tuple[pl.DataFrame, pl.DataFrame] | None = None) -> pl.LazyFrame:
     """The plan's columns added to a combined table: each band row's error estimate, each run's
     worst error and budget verdict (``estimates``, from :func:`run_estimates`), the speed-up and
-    time saved (null where the plan has none, and for every row of the surface runs
-    ``surface_ids``, which the plan does not cover)."""
+    time saved (null where the plan has none). The rows of the surface runs ``surface_ids``,
+    which the plan does not cover, get their own areal pilot's (``surface_own``, from
+    :func:`surface_estimates`; null where there is none)."""
     band_errors, run_verdicts = estimates
+    own_bands, own_runs = surface_own if surface_own is not None else surface_estimates([], None)
     surface = pl.col("run_id").is_in(pl.Series(list(surface_ids), dtype=pl.String).implode())
     if name == "bands":
-        joined = query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
-        # the pilot measures the line model of line runs only: areal rows, and the line rows of
-        # surface runs, have no error estimate
-        return joined.with_columns(pl.when((pl.col("model") == "areal") | surface).then(None)
+        joined = (query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
+                  .join(own_bands.lazy(), on=["run_id", "model", "band"], how="left", maintain_order="left"))
+        # the line pilot measures the line model of line runs only
+        return joined.with_columns(pl.when(surface).then(pl.col("surface_error_db"))
+                                   .when(pl.col("model") == "areal").then(None)
                                    .otherwise(pl.col("level_error_db")).alias("level_error_db"))
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in
         # parameters.json and pilot.parquet.
         speedup = None if plan is None else plan.speedup
-        saved = None if not speedup else 1.0 - 1.0 / speedup
-        joined = query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left")
+        joined = (query.join(run_verdicts.lazy(), on="run_id", how="left", maintain_order="left")
+                  .join(own_runs.lazy(), on="run_id", how="left", maintain_order="left"))
+        ratio = pl.when(surface).then(pl.col("surface_speedup")).otherwise(pl.lit(speedup, dtype=pl.Float64))
         return joined.with_columns(
-            *[pl.when(surface).then(None).otherwise(pl.col(c)).alias(c) for c in ("worst_level_error_db", "within_budget")],
-            pl.when(surface).then(None).otherwise(pl.lit(speedup, dtype=pl.Float64)).cast(pl.Float64).alias("speedup"),
-            pl.when(surface).then(None).otherwise(pl.lit(saved, dtype=pl.Float64)).cast(pl.Float64)
-            .alias("time_saved_fraction"))
+            pl.when(surface).then(pl.col("surface_worst_db")).otherwise(pl.col("worst_level_error_db"))
+            .alias("worst_level_error_db"),
+            pl.when(surface).then(pl.col("surface_within")).otherwise(pl.col("within_budget")).alias("within_budget"),
+            ratio.cast(pl.Float64).alias("speedup"),
+            (1.0 - 1.0 / ratio).cast(pl.Float64).alias("time_saved_fraction"))
     return query
 
 

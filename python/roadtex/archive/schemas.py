@@ -84,7 +84,8 @@ BAND_COLUMNS: Columns = {
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
-                                                  # (the line-run pilot's; null for surface runs' rows: not budgeted)
+                                                  # (line runs: their group's pilot; surface runs: their own
+                                                  # areal pilot, per model; null without budget)
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -109,10 +110,10 @@ RUN_COLUMNS: Columns = {
     "mpd_valid_baselines": (pl.Int64(), "count"),
     "mpd_baselines": (pl.Int64(), "count"),
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
-                                                   # and for surface runs (the pilot is of line runs)
-    "within_budget": (pl.Boolean(), None),        # null without budget and for surface runs
+                                                   # (surface runs: both models, from their areal pilot)
+    "within_budget": (pl.Boolean(), None),        # null without budget
     "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
-                                                  # null for surface runs)
+                                                  # surface runs: tol 1e-10 against the job's, same spacings)
     "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
 }
 PILOT_COLUMNS: Columns = {
@@ -140,6 +141,15 @@ ERROR_COLUMNS: Columns = {
     "stage": (pl.String(), None),                 # read, condition, mpd, segment, spectra, solve
     "error_type": (pl.String(), None),
     "message": (pl.String(), None),
+}
+SURFACE_ERROR_COLUMNS: Columns = {                # per surface run (runs/<id>/level_errors.parquet)
+    "run_id": (pl.String(), None),
+    "model": (pl.String(), None),                 # "line" or "areal"
+    "band": (pl.Int64(), "1"),
+    "in_budget": (pl.Boolean(), None),            # a tyre/road noise band the budget applies to
+    "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of the model's levels
+    "speedup": (pl.Float64(), "1"),               # solver work at tol 1e-10 / at the job's tol (both models)
+    "pilot_tiles": (pl.Int64(), "count"),         # tiles the areal pilot solved
 }
 PROFILE_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -237,6 +247,7 @@ SURFACE_EXAMPLE_SCHEMA = schema(SURFACE_EXAMPLE_COLUMNS)
 VON_MEIER_SCHEMA = schema(VON_MEIER_COLUMNS)
 PENETRATION_SCHEMA = schema(PENETRATION_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
+SURFACE_ERROR_SCHEMA = schema(SURFACE_ERROR_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
 PLAN_BAND_COLUMNS = ("level_error_db",)

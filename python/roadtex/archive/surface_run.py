@@ -12,13 +12,15 @@ How a surface run is cut and solved (documented choices):
   same road.
 - Areal band levels are taken along those rows of each tile's enveloped surface (and of its
   pressure map): ``bands.parquet`` holds one row per (model, segment, line, modulus, band).
-- The surface is solved at its own spacings ``dx``, ``dy`` and at the job's tolerance; the
-  job's error budget (a pilot on line runs) does not cover areal rows: their ``level_error_db``
-  is null.
+- The surface is solved at its own spacings ``dx``, ``dy`` and at the job's tolerance. With an
+  error budget, its levels get their own estimates from an areal pilot on a few of its tiles
+  (:mod:`roadtex.budget.areal`; the job's pilot is of line runs): ``level_errors`` per (model,
+  band), which the job joins into bands.parquet ``level_error_db`` and runs.parquet.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +34,12 @@ from roadtex.archive.schemas import (
     RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
     SEGMENT_SCHEMA,
+    SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
 )
-from roadtex.errors import InvalidInputError, RunFailure
+from roadtex.budget.areal import SurfaceErrors, pilot_tile_indices, surface_level_errors
+from roadtex.budget.noise import in_budget
+from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
@@ -102,8 +107,10 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
 
     Returns:
         The run's tables (``segments``, ``bands``, ``run``; ``example`` is None), as line runs
-        give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface,
-        and ``surface_example``: the middle tile solved at the middle modulus (for the report).
+        give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface;
+        ``surface_example``: the middle tile solved at the middle modulus (for the report); and
+        ``level_errors`` (SURFACE_ERROR_SCHEMA; None without an error budget, or when one tile is
+        too large for the areal pilot): the error estimate of each model's levels per band.
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
@@ -144,6 +151,8 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(bands.height, np.nan))
     line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
+    errors = (run_stage("solve", lambda: pilot_errors(run, options, tiles, lines, rows, moduli, bands, threads))
+              if options.error_budget_db is not None else None)
     # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
     # envelopes and pressures, for every modulus, are what grows with the run's length).
     chunk = max(1, CHUNK_POINTS // (n_y * n_x))
@@ -165,6 +174,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     return {
         "example": None,
         "surface_example": example,
+        "level_errors": None if errors is None else error_table(run["run_id"], errors),
         "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
@@ -182,15 +192,12 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
     n_x = tiles.heights.shape[2]
     band_frames: list[pl.DataFrame] = []
     segment_frames: list[pl.DataFrame] = []
-    heights = tiles.heights[part]
+    heights, line_heights, frame_shift = tile_lines(tiles, part, lines, rows)
     n_tiles = part.size
     areal = run_stage("solve", lambda: contact_surface_many(
         heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
         tol=options.tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
         raise_on_nonconvergence=False))
-    # the line model on the same stretches: [tile, line, x]
-    take = tiles.column_starts[part][:, None] + np.arange(n_x)[None, :]
-    line_heights = remove_lines(np.stack([p.heights[take] for p in lines], axis=1))[0]
     flat = line_heights.reshape(-1, n_x)
     line_batch = run_stage("solve", lambda: contact_many(
         flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
@@ -198,10 +205,6 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
 
     method, kind = options.band_method, options.band_kind
     texture = run_stage("spectra", lambda: band_levels(flat, dx, kind=kind, periodic=True, method=method))
-    # tiles are detrended with their plane, the line model's stretches with their own line: the
-    # areal envelope's lines are moved into the line model's frame (the linear difference of the
-    # two detrendings subtracted) so that both models' spectra see the same road
-    frame_shift = heights[:, rows, :] - line_heights             # [tile, line, x], linear in x
     areal_env = areal.envelope[:, :, rows, :] - frame_shift[:, None]   # [tile, modulus, line, x]
     areal_p = areal.pressure[:, :, rows, :]
     line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, n_x)
@@ -243,7 +246,8 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
     line_mpd = line_mpd[part]
     segment_frames = []
     line_measures = contact_measures(line_heights[:, :, None, :], line_p, line_env)
-    with np.errstate(all="ignore"):
+    with warnings.catch_warnings():  # a tile without any valid MPD baseline: NaN (null), no warning
+        warnings.simplefilter("ignore", RuntimeWarning)
         areal_mpd = np.nanmean(line_mpd, axis=1) if np.isfinite(line_mpd).any() else np.full(n_tiles, np.nan)
     areal_measures = contact_measures(heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
                                       areal.envelope.reshape(n_tiles, moduli.size, -1))
@@ -268,6 +272,55 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
     example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli)
                if middle in part else None)
     return {"bands": band_frames, "segments": segment_frames, "example": example}
+
+
+def tile_lines(tiles: Any, part: np.ndarray, lines: list[Any],
+               rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tiles ``part`` as solved (tiles, ny, nx; plane removed), the line model's stretches of them
+    (tiles, lines, nx; each its own line removed), and the move of the areal rows into the line
+    model's frame (tiles, lines, nx)."""
+    n_x = tiles.heights.shape[2]
+    heights = tiles.heights[part]
+    take = tiles.column_starts[part][:, None] + np.arange(n_x)[None, :]
+    line_heights = remove_lines(np.stack([p.heights[take] for p in lines], axis=1))[0]
+    # tiles are detrended with their plane, the line model's stretches with their own line: the
+    # areal envelope's lines are moved into the line model's frame (the linear difference of the
+    # two detrendings subtracted) so that both models' spectra see the same road
+    return heights, line_heights, heights[:, rows, :] - line_heights
+
+
+def pilot_errors(run: dict[str, Any], options: ProcessingOptions, tiles: Any, lines: list[Any], rows: np.ndarray,
+                 moduli: np.ndarray, bands: pl.DataFrame, threads: int | None) -> SurfaceErrors | None:
+    """The areal pilot's error estimates of the run's levels (:mod:`roadtex.budget.areal`), or
+    None (warned) when one tile is too large for it."""
+    n_tiles, n_y, n_x = tiles.heights.shape
+    chosen = pilot_tile_indices(n_tiles, n_y * n_x)
+    if chosen.size == 0:
+        warnings.warn(f"run {run['run_id']!r}: tiles of {n_y} x {n_x} points are too large for the areal error "
+                      "pilot; its levels have no error estimate (level_error_db null)", ErrorBudgetWarning, stacklevel=2)
+        return None
+    heights, line_heights, shift = tile_lines(tiles, chosen, lines, rows)
+    reported = bands.filter(pl.col("reported"))["band"].to_numpy()
+    return surface_level_errors(
+        heights, line_heights, shift, rows, tiles.dx, tiles.dy, bands=reported,
+        in_budget=in_budget(reported, tiles.dx, tiles.length, options.band_kind),
+        run_rows=n_tiles * rows.size * moduli.size, youngs_moduli=moduli, mean_pressure=options.mean_pressure,
+        poisson=options.poisson, tol=float(options.tol or 0.0), band_kind=options.band_kind,
+        band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
+        pilot_tiles=tuple(int(t) for t in chosen))
+
+
+def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
+    """The run's ``level_errors`` table (SURFACE_ERROR_SCHEMA): one row per (model, band)."""
+    models = list(errors.level_error_db)
+    count = errors.bands.size
+    return pl.DataFrame({
+        "run_id": [run_id] * (count * len(models)), "model": np.repeat(models, count),
+        "band": np.tile(errors.bands, len(models)), "in_budget": np.tile(errors.in_budget, len(models)),
+        "level_error_db": np.concatenate([errors.level_error_db[m] for m in models]),
+        "speedup": np.full(count * len(models), errors.work_speedup),
+        "pilot_tiles": [len(errors.pilot_tiles)] * (count * len(models)),
+    }, schema=SURFACE_ERROR_SCHEMA)
 
 
 def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.ndarray | None, modulus: np.ndarray,

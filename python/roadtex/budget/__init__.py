@@ -4,7 +4,8 @@ numerical error, and what that costs.
 - :mod:`roadtex.budget.sizes`: FFT-friendly (5-smooth) point counts;
 - :mod:`roadtex.budget.noise`: the default budget and the tyre/road noise bands it applies to;
 - :mod:`roadtex.budget.study`: :func:`convergence_study`, levels against dx and tol on pilot segments;
-- :mod:`roadtex.budget.pilot`: :func:`choose_setting`, the cheapest setting within the budget.
+- :mod:`roadtex.budget.pilot`: :func:`choose_setting`, the cheapest setting within the budget;
+- :mod:`roadtex.budget.areal`: the error estimates of surface runs (an areal pilot on a few tiles).
 """
 
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH, budget_bands

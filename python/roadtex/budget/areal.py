@@ -1,0 +1,201 @@
+"""The numerical error of a surface run's levels: an areal pilot on a few of its tiles.
+
+A surface run (3D texture) is solved at its own spacings and at the job's tolerance, with the
+areal model on tiles and with the line model on rows of the same tiles (see
+:mod:`roadtex.archive.surface_run`). Its levels get error estimates the way a line run's do
+(:mod:`roadtex.budget.study`), from a few *pilot* tiles spread evenly along the run:
+
+1. **Reference**: each pilot tile (and its analysed rows, for the line model) solved at the
+   reference tolerance (1e-10) at the file's spacings.
+2. **Reference's own error** (Richardson, first order): the same tiles solved at half the spacing
+   each way, every height repeated over a 2 x 2 block (a row's samples repeated twice for the
+   line model): the same surface as the file gives, on a grid twice as fine. The areal levels
+   are taken along the mean of the two fine rows of each analysed row. The reference's own error
+   is :data:`RICHARDSON_FACTOR` (3) |L(h / 2) - L(h)|: surface levels converge more slowly than
+   first order (2, the line runs' factor).
+3. **Tolerance**: the tiles solved at the job's tolerance; the difference from the reference.
+4. **Estimate** per (model, band): as for line runs, the differences of the pilot rows extended
+   to every row of the run (:func:`roadtex.budget.study.extreme`), the tolerance's times
+   ``SPREAD_FACTOR``, plus the reference's own error; the larger of the enveloped and pressure
+   estimates. Texture levels are the file's own (no resampling): no numerical error.
+
+The pilot is bounded: :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot tiles
+(fewer tiles when tiles are large). A tile too large for even one is not estimated (None).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from roadtex.budget.study import REFERENCE_TOL, SPREAD_FACTOR, band_columns, difference, extreme
+from roadtex.models.contact import contact_many
+from roadtex.models.surface import contact_surface_many
+from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind
+from roadtex.spectra.levels import Method, band_levels
+
+#: Pilot tiles of a surface run, spread evenly along it (fewer when they are large).
+AREAL_PILOT_TILES = 3
+
+#: Largest number of surface points at half spacing over all pilot tiles (the pilot's cost: about
+#: 4 times that many points solved per modulus at tol 1e-10). 2^22: three tiles of 0.5 m x 0.1 m at
+#: 0.5 mm, one of 0.5 m x 0.1 m at 0.25 mm.
+AREAL_PILOT_POINTS = 2 ** 22
+
+MODELS = ("line", "areal")
+
+#: Richardson factor of the reference's own error: error(h) ~ factor x |L(h / 2) - L(h)| (2 would
+#: be first order, as for line runs). The levels of surface runs converge more slowly: rows of an
+#: areal pressure map cross contact spots that every halving resolves better. On 48 cases (3
+#: synthetic pavements x 8 seeds x 2 widths, 1 mm, 0.128 m tiles, E = 2 and 10 MPa, tol 1e-6) the
+#: areal pressure levels of some bands fell only 1.3 times per halving (order 0.4); against solves
+#: 8 (areal) and 16 (line) times finer, factor 2 fell short by up to 0.2 dB (areal) and 0.06 dB
+#: (line); factor 3 (order 0.6) covered every band of both models, by at least 1.3 times (median
+#: 3 times; README "Error budget"). One factor for both models: on a surface that is a profile
+#: extruded across the road, where both models give the same levels, they get the same estimate.
+RICHARDSON_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class SurfaceErrors:
+    """Error estimates of a surface run's levels at its spacings and the job's tol.
+
+    Attributes:
+        bands: band numbers, those reported at the run's tile length and dx.
+        in_budget: which of ``bands`` the budget applies to (:mod:`roadtex.budget.noise`).
+        level_error_db: model ("line", "areal") -> upper estimate (dB) per band of the numerical
+            error of that model's enveloped and pressure levels (the larger of the two), any row.
+        work_speedup: the solver work (iterations x N log2 N, both models) at the reference
+            tolerance over that at the job's tol, on the pilot tiles.
+        pilot_tiles: the tiles (indices along the run) the estimate comes from.
+    """
+
+    bands: np.ndarray
+    in_budget: np.ndarray
+    level_error_db: dict[str, np.ndarray]
+    work_speedup: float
+    pilot_tiles: tuple[int, ...]
+
+    def worst_db(self) -> float:
+        """The largest estimate over both models in the budget bands (dB; 0 without budget bands)."""
+        values = [e[self.in_budget] for e in self.level_error_db.values()]
+        return float(max((v.max() for v in values if v.size), default=0.0))
+
+
+def pilot_tile_indices(n_tiles: int, points_per_tile: int) -> np.ndarray:
+    """Up to :data:`AREAL_PILOT_TILES` tiles spread evenly over ``n_tiles``, as many as fit in
+    :data:`AREAL_PILOT_POINTS` at half spacing (empty: one tile does not fit)."""
+    fits = AREAL_PILOT_POINTS // (4 * max(points_per_tile, 1))
+    count = min(AREAL_PILOT_TILES, n_tiles, fits)
+    if count <= 0:
+        return np.empty(0, dtype=np.int64)
+    return np.unique(np.round(np.linspace(0, n_tiles - 1, count)).astype(np.int64))
+
+
+@dataclass(frozen=True)
+class _Setup:
+    moduli: np.ndarray
+    mean_pressure: float
+    poisson: float
+    kind: BandKind
+    method: Method
+    max_iterations: int
+    threads: int | None
+
+
+def _levels(setup: _Setup, envelope: np.ndarray, pressure: np.ndarray, dx: float,
+            bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Enveloped and pressure levels (2, rows, bands) of signals (..., x) sampled every ``dx`` m,
+    in the columns of ``bands``, and whether each band is reported at ``dx``."""
+    n = envelope.shape[-1]
+    env = band_levels(envelope.reshape(-1, n), dx, kind=setup.kind, periodic=True, method=setup.method)
+    pres = band_levels(pressure.reshape(-1, n), dx, kind=setup.kind, periodic=True, method=setup.method,
+                       reference=REFERENCE_PRESSURE)
+    columns, ok = band_columns(env.bands, bands)
+    return np.stack([env.levels[:, columns], pres.levels[:, columns]]), ok
+
+
+def _work(iterations: np.ndarray, points: int) -> float:
+    return float(np.sum(iterations)) * points * np.log2(points)
+
+
+def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float,
+                 bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The line model on rows ``lines`` (rows, x): levels (2, rows x moduli, bands), reported, work."""
+    batch = contact_many(lines, dx, setup.moduli, setup.mean_pressure, poisson=setup.poisson, tol=tol,
+                         max_iterations=setup.max_iterations, threads=setup.threads, warm_start=True,
+                         raise_on_nonconvergence=False)
+    levels, ok = _levels(setup, batch.envelope, batch.pressure, dx, bands)
+    return levels, ok, _work(batch.iterations, lines.shape[-1])
+
+
+def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol: float, rows: np.ndarray,
+                  factor: int, shift: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The areal model on tiles ``heights`` (tiles, ny, nx) refined ``factor`` times each way; levels
+    (2, tiles x lines x moduli, bands) along the analysed ``rows`` (the mean of the ``factor`` fine
+    rows of each), moved by ``shift`` (tiles, lines, nx at the file's dx) as the job moves them."""
+    fine = np.repeat(np.repeat(heights, factor, axis=1), factor, axis=2)
+    solved = contact_surface_many(fine, dx / factor, dy / factor, youngs_modulus=setup.moduli,
+                                  mean_pressure=setup.mean_pressure, poisson=setup.poisson, tol=tol,
+                                  max_iterations=setup.max_iterations, threads=setup.threads, warm_start=True,
+                                  raise_on_nonconvergence=False)
+    n_tiles, n_moduli = solved.envelope.shape[:2]
+    nx = fine.shape[2]
+
+    def along_rows(field: np.ndarray) -> np.ndarray:   # (tiles, moduli, fine ny, nx) -> (tiles, lines, moduli, nx)
+        blocks = field.reshape(n_tiles, n_moduli, -1, factor, nx)[:, :, rows].mean(axis=3)
+        return np.moveaxis(blocks, 1, 2)
+
+    envelope = along_rows(solved.envelope) - np.repeat(shift, factor, axis=-1)[:, :, None, :]
+    levels, ok = _levels(setup, envelope, along_rows(solved.pressure), dx / factor, bands)
+    return levels, ok, _work(solved.iterations, fine.shape[1] * nx)
+
+
+def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarray, rows: np.ndarray, dx: float,
+                         dy: float, *, bands: np.ndarray, in_budget: np.ndarray, run_rows: int,
+                         youngs_moduli: np.ndarray, mean_pressure: float, poisson: float, tol: float,
+                         band_kind: BandKind, band_method: Method, max_iterations: int,
+                         threads: int | None, pilot_tiles: tuple[int, ...] = ()) -> SurfaceErrors:
+    """Error estimates of a surface run's levels from its pilot tiles (see the module).
+
+    Args:
+        heights: the pilot tiles as the job solves them (tiles, ny, nx; m, plane removed).
+        lines: the line model's stretches of those tiles (tiles, lines, nx; m, line removed).
+        shift: the job's move of the areal envelope's rows into the line model's frame
+            (tiles, lines, nx; m): the tile's rows minus ``lines``.
+        rows: the analysed rows of a tile (indices across the road).
+        dx, dy: the run's spacings along and across the road (m).
+        bands: band numbers to estimate (those the job reports); in_budget: which are budget bands.
+        run_rows: rows (tiles x lines x moduli) of each model in the whole run.
+        youngs_moduli, mean_pressure, poisson, tol, band_kind, band_method, max_iterations,
+            threads: as the job solves and analyses the run (Pa, Pa, 1, relative residual).
+        pilot_tiles: the tiles' indices along the run (recorded).
+
+    Returns:
+        A :class:`SurfaceErrors`.
+    """
+    setup = _Setup(np.asarray(youngs_moduli, dtype=np.float64), mean_pressure, poisson, band_kind, band_method,
+                   max_iterations, threads)
+    flat = lines.reshape(-1, lines.shape[-1])
+    estimates: dict[str, np.ndarray] = {}
+    work = {"reference": 0.0, "job": 0.0}
+    for model in MODELS:
+        if model == "line":
+            reference, _, w_ref = _line_levels(setup, flat, dx, REFERENCE_TOL, bands)
+            at_tol, ok_tol, w_job = _line_levels(setup, flat, dx, tol, bands)
+            halved, ok_half, _ = _line_levels(setup, np.repeat(flat, 2, axis=-1), dx / 2, REFERENCE_TOL, bands)
+        else:
+            reference, _, w_ref = _areal_levels(setup, heights, dx, dy, REFERENCE_TOL, rows, 1, shift, bands)
+            at_tol, ok_tol, w_job = _areal_levels(setup, heights, dx, dy, tol, rows, 1, shift, bands)
+            halved, ok_half, _ = _areal_levels(setup, heights, dx, dy, REFERENCE_TOL, rows, 2, shift, bands)
+        work["reference"] += w_ref
+        work["job"] += w_job
+        # Richardson: L(h) - L(0) ~ factor (L(h) - L(h / 2))
+        own = RICHARDSON_FACTOR * extreme(np.moveaxis(np.where(ok_half, difference(halved, reference), np.nan), 1, 0), run_rows)
+        by_tol = extreme(np.moveaxis(np.where(ok_tol, difference(at_tol, reference), np.nan), 1, 0), run_rows)
+        estimate = (SPREAD_FACTOR * by_tol + own).max(axis=0)
+        estimates[model] = np.where(np.isfinite(estimate), estimate, np.inf)
+    speedup = work["reference"] / work["job"] if work["job"] > 0 else 1.0
+    return SurfaceErrors(np.asarray(bands), np.asarray(in_budget, dtype=bool), estimates, float(speedup),
+                         tuple(int(t) for t in pilot_tiles))

@@ -1,0 +1,112 @@
+"""The areal pilot's error estimates of surface runs (roadtex.budget.areal): never below the error
+actually made, measured against a much finer solve of the same surface; bounded in cost."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+
+from roadtex.archive import ProcessingOptions, process
+from roadtex.budget import areal
+from roadtex.errors import ErrorBudgetWarning
+from roadtex.models.contact import contact_many
+from roadtex.models.surface import contact_surface_many
+from roadtex.profiles.trend import remove_lines
+from roadtex.spectra.bands import REFERENCE_PRESSURE
+from roadtex.spectra.levels import band_levels
+from roadtex.surfaces import synthetic_surface
+
+MODULI = np.array([2e6, 1e7])
+PRESSURE = 2e5
+DX = 1e-3
+TOL = 1e-6
+
+
+def levels_of(envelope: np.ndarray, pressure: np.ndarray, dx: float, bands: np.ndarray) -> np.ndarray:
+    """(2, rows, bands): enveloped and pressure levels of signals (..., x), in the columns of ``bands``."""
+    n = envelope.shape[-1]
+    env = band_levels(envelope.reshape(-1, n), dx, periodic=True)
+    pres = band_levels(pressure.reshape(-1, n), dx, periodic=True, reference=REFERENCE_PRESSURE)
+    columns = [int(np.flatnonzero(env.bands["band"].to_numpy() == b)[0]) for b in bands]
+    return np.stack([env.levels[:, columns], pres.levels[:, columns]])
+
+
+def line_levels(lines: np.ndarray, factor: int, tol: float, bands: np.ndarray) -> np.ndarray:
+    fine = np.repeat(lines, factor, axis=-1)
+    batch = contact_many(fine, DX / factor, MODULI, PRESSURE, tol=tol, warm_start=True)
+    return levels_of(batch.envelope, batch.pressure, DX / factor, bands)
+
+
+def areal_levels(tile: np.ndarray, rows: np.ndarray, shift: np.ndarray, factor: int, tol: float,
+                 bands: np.ndarray) -> np.ndarray:
+    """Levels along ``rows`` of the tile solved on a grid ``factor`` times finer each way: each
+    analysed row is the mean of its ``factor`` fine rows, moved by ``shift`` as the job does."""
+    fine = np.repeat(np.repeat(tile, factor, axis=0), factor, axis=1)
+    solved = contact_surface_many(fine[None], DX / factor, DX / factor, youngs_modulus=MODULI,
+                                  mean_pressure=PRESSURE, tol=tol, warm_start=True)
+    ny, nx = fine.shape
+    envelope = np.stack([solved.envelope[0, :, r * factor:(r + 1) * factor].mean(axis=1) for r in rows])
+    pressure = np.stack([solved.pressure[0, :, r * factor:(r + 1) * factor].mean(axis=1) for r in rows])
+    envelope = envelope - np.repeat(shift, factor, axis=-1)[:, None, :]
+    return levels_of(envelope, pressure, DX / factor, bands)
+
+
+def gap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| (dB); a row without contact has no pressure at all (-inf dB) on both grids: no error."""
+    both_silent = np.isneginf(a) & np.isneginf(b)
+    return np.abs(np.where(both_silent, 0.0, a) - np.where(both_silent, 0.0, b))
+
+
+@pytest.mark.parametrize("kind, seed", [("dense_asphalt", 5), ("porous_asphalt", 6)])
+def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, seed: int) -> None:
+    surface = synthetic_surface(kind, 0.128, 0.016, DX, seed=seed)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.array([0, 5, 10, 15])
+    lines = remove_lines(tile[rows])[0]
+    shift = tile[rows] - lines
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    stated = areal.surface_level_errors(
+        tile[None], lines[None], shift[None], rows, DX, DX, bands=bands, in_budget=np.ones(bands.size, bool),
+        run_rows=rows.size * MODULI.size, youngs_moduli=MODULI, mean_pressure=PRESSURE, poisson=0.5, tol=TOL,
+        band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None)
+    # the job's levels (file grid, tol TOL) against the same surface solved 16 (line) and 8
+    # (areal) times finer each way at tol 1e-10
+    actual = {
+        "line": gap(line_levels(lines, 1, TOL, bands), line_levels(lines, 16, 1e-10, bands)),
+        "areal": gap(areal_levels(tile, rows, shift, 1, TOL, bands), areal_levels(tile, rows, shift, 8, 1e-10, bands)),
+    }
+    for model, error in actual.items():
+        worst = error.max(axis=(0, 1))
+        assert np.all(np.isfinite(stated.level_error_db[model]))
+        assert np.all(stated.level_error_db[model] >= worst - 0.02), (model, stated.level_error_db[model] - worst)
+        # and not vacuous: the estimate is within a few times the actual error where it is sizeable
+        sizeable = worst > 0.1
+        assert np.all(stated.level_error_db[model][sizeable] < 8 * worst[sizeable]), model
+    assert stated.worst_db() == max(stated.level_error_db["line"].max(), stated.level_error_db["areal"].max())
+    assert stated.work_speedup > 1.0  # tol 1e-6 costs less than tol 1e-10
+
+
+def test_pilot_tiles_are_spread_and_bounded() -> None:
+    assert areal.pilot_tile_indices(10, 1000).tolist() == [0, 4, 9]   # 0, 4.5 rounded to even, 9
+    assert areal.pilot_tile_indices(2, 1000).tolist() == [0, 1]
+    per_tile = areal.AREAL_PILOT_POINTS // 8                          # two fit at half spacing
+    assert areal.pilot_tile_indices(10, per_tile).tolist() == [0, 9]
+    assert areal.pilot_tile_indices(10, areal.AREAL_PILOT_POINTS).size == 0
+
+
+def test_a_surface_too_large_for_the_pilot_is_warned_about_and_left_unestimated(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "s.npy"
+    np.save(path, synthetic_surface("dense_asphalt", 0.2, 0.01, DX, seed=1).heights)
+    manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
+    monkeypatch.setattr(areal, "AREAL_PILOT_POINTS", 100)
+    options = ProcessingOptions(segment_length=0.1, youngs_moduli=(2e6,), tol=1e-6)
+    with pytest.warns(ErrorBudgetWarning, match="run 's': tiles of 10 x 100 points are too large for the areal error pilot"):
+        assert process(manifest, tmp_path / "out", options, quiet=True).failed == 0
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
+    assert runs["worst_level_error_db"][0] is None and runs["within_budget"][0] is None
+    assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].null_count() > 0
+    assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].drop_nulls().len() == 0
