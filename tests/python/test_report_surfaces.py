@@ -14,7 +14,7 @@ from roadtex.demo import write_synthetic_archive
 from roadtex.profiles import synthetic_pavement
 from roadtex.report import build_report
 from roadtex.report.data import load_results
-from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, level_differences
+from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, level_differences, surface_error_table
 
 OPTIONS = ProcessingOptions(segment_length=0.2, youngs_moduli=(2e6, 5e6), tol=1e-8)
 
@@ -76,3 +76,20 @@ def test_line_only_results_build_without_surface_part(tmp_path: Path) -> None:
     report = build_report(tmp_path / "results", out_dir=tmp_path / "report")
     assert "surface_tiles" not in report.figures and "line_vs_areal" not in report.figures
     assert 'class="surfaces"' not in report.html.read_text(encoding="utf-8")
+
+
+def test_report_states_the_surface_levels_numerical_error(mixed_results: Path, tmp_path: Path) -> None:
+    """The surface part carries each surface run's own error estimates (its areal pilot's), the
+    largest per pavement, band and model, as bands.parquet holds them."""
+    results = load_results(mixed_results)
+    table = surface_error_table(results)
+    bands = pl.read_parquet(mixed_results / "bands.parquet").filter(
+        pl.col("reported") & (pl.col("run_id") == "dense_asphalt_surface_001"))
+    for model in ("line", "areal"):
+        expected = bands.filter(pl.col("model") == model).group_by("label").agg(pl.col("level_error_db").max())
+        shown = table.filter(pl.col("pavement") == "dense_asphalt").select("band (mm)", f"{model} model error (dB)")
+        joined = expected.join(shown, left_on="label", right_on="band (mm)")
+        assert joined.height == expected.height > 0
+        np.testing.assert_array_equal(joined["level_error_db"].to_numpy(), joined[f"{model} model error (dB)"].to_numpy())
+    text = build_report(mixed_results, out_dir=tmp_path / "report").html.read_text(encoding="utf-8")
+    assert 'class="surface-errors"' in text and "not resolved by the data's sampling" in text

@@ -64,6 +64,7 @@ from roadtex.report.surface_figures import (
     agreement_table,
     fig_line_vs_areal,
     fig_surface_tiles,
+    surface_error_table,
 )
 
 #: Figure order and captions in the report (without their number: a figure's number is its place in
@@ -261,10 +262,21 @@ def surface_section(results: Results) -> list[str]:
     """The 3D surfaces' table (nothing when the results hold no areal row)."""
     if results.surface_bands is None:
         return []
-    return [f"<h2>3D surfaces: where the line model is within {AGREEMENT_DB:g} dB of the areal model</h2>",
-            f"<p>Per pavement and E, the bands whose mean enveloped level on the surface's lines (line model) "
-            f"differs by at most {AGREEMENT_DB:g} dB from the areal model's on the same lines.</p>",
-            html_table(agreement_table(results), classes="surfaces")]
+    section = [f"<h2>3D surfaces: where the line model is within {AGREEMENT_DB:g} dB of the areal model</h2>",
+               f"<p>Per pavement and E, the bands whose mean enveloped level on the surface's lines (line model) "
+               f"differs by at most {AGREEMENT_DB:g} dB from the areal model's on the same lines.</p>",
+               html_table(agreement_table(results), classes="surfaces")]
+    errors = surface_error_table(results)
+    if errors.height:
+        section += ["<p>The numerical error of those levels: per pavement and band, the largest upper estimate "
+                    "over its surface runs (bands.parquet level_error_db, from each run's own areal pilot: a few "
+                    "tiles solved again at tol 1e-10 and at half the spacing). A line-minus-areal difference "
+                    "smaller than the two models' errors together is not resolved by the data's sampling.</p>",
+                    html_table(errors, classes="surface-errors")]
+    else:
+        section.append("<p>The surface runs' levels have no error estimate (error budget off, or tiles too large "
+                       "for the areal pilot).</p>")
+    return section
 
 
 def cell(value: Any) -> str:

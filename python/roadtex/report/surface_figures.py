@@ -59,6 +59,23 @@ def agreement_table(results: Results) -> pl.DataFrame:
     return pl.DataFrame(rows)
 
 
+def surface_error_table(results: Results) -> pl.DataFrame:
+    """Per pavement and band: the largest estimated numerical error (dB) of the surface runs' line
+    and areal levels (bands.parquet ``level_error_db``, from each run's areal pilot). Empty when no
+    surface row has an estimate (error budget off)."""
+    assert results.surface_bands is not None
+    if "level_error_db" not in results.surface_bands.columns:
+        return pl.DataFrame()
+    bands = results.surface_bands.filter(pl.col("level_error_db").is_not_null()).join(
+        surface_groups(results), on="run_id", how="left")
+    if bands.height == 0:
+        return pl.DataFrame()
+    worst = bands.group_by("group", "band", "model").agg(pl.col("label").first(), pl.col("level_error_db").max())
+    table = worst.pivot(on="model", index=["group", "band", "label"], values="level_error_db").sort("group", "band")
+    return table.select(pl.col("group").alias("pavement"), pl.col("label").alias("band (mm)"),
+                        *[pl.col(m).alias(f"{m} model error (dB)") for m in ("line", "areal") if m in table.columns])
+
+
 def fig_surface_tiles(plt, results: Results):
     """For one tile per pavement: the enveloped surface (mm) and its pressure map (MPa), with colour bars."""
     examples = results.surface_examples
