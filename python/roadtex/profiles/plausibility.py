@@ -55,7 +55,8 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
         return None
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"), warnings.catch_warnings():  # an all-NaN row: NaN measures, not a warning
+        warnings.simplefilter("ignore", RuntimeWarning)
         if np.isnan(rows).any():
             centred = rows - np.nanmedian(rows, axis=1, keepdims=True)
             peak_to_valley = np.nanmax(centred, axis=1) - np.nanmin(centred, axis=1)
