@@ -10,6 +10,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
+from roadtex.archive.surface_run import line_rows
 from roadtex.budget import areal
 from roadtex.errors import ErrorBudgetWarning
 from roadtex.models.contact import contact_many
@@ -18,6 +19,7 @@ from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 from roadtex.spectra.levels import band_levels
 from roadtex.surfaces import synthetic_surface
+from roadtex.surfaces.tiles import plane_fits
 
 MODULI = np.array([2e6, 1e7])
 PRESSURE = 2e5
@@ -92,9 +94,46 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
 def test_pilot_tiles_are_spread_and_bounded() -> None:
     assert areal.pilot_tile_indices(10, 1000).tolist() == [0, 4, 9]   # 0, 4.5 rounded to even, 9
     assert areal.pilot_tile_indices(2, 1000).tolist() == [0, 1]
-    per_tile = areal.AREAL_PILOT_POINTS // 8                          # two fit at half spacing
-    assert areal.pilot_tile_indices(10, per_tile).tolist() == [0, 9]
+    per_window = areal.AREAL_PILOT_POINTS // 8                        # two fit at half spacing
+    assert areal.pilot_tile_indices(10, per_window).tolist() == [0, 9]
     assert areal.pilot_tile_indices(10, areal.AREAL_PILOT_POINTS).size == 0
+
+
+def test_wide_tiles_are_piloted_on_a_strip_around_the_middle_row() -> None:
+    rows = np.array([0, 100, 200, 299, 399])
+    n_x = 1000
+    window, inside = areal.pilot_window(400, n_x, rows)
+    assert (window.stop - window.start) * n_x <= areal.AREAL_WINDOW_POINTS
+    assert window.start <= 200 < window.stop and rows[inside].tolist() == [200]
+    whole, all_rows = areal.pilot_window(20, n_x, rows[:2] // 10)     # a narrow tile: all of it
+    assert (whole.start, whole.stop) == (0, 20) and all_rows.tolist() == [0, 1]
+    thin, _ = areal.pilot_window(400, 10 ** 6, rows)                  # never fewer than MIN_WINDOW_ROWS
+    assert thin.stop - thin.start == areal.MIN_WINDOW_ROWS
+
+
+@pytest.mark.parametrize("kind, seed", [("dense_asphalt", 7), ("cement_concrete", 8)])
+def test_a_strips_estimate_covers_the_whole_tiles_error(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         kind: str, seed: int) -> None:
+    """The job's pilot of a wide tile solves a 16-row strip of it; its estimate covers the error of
+    the whole tile's levels on every analysed row (against the whole tile solved 4 times finer)."""
+    surface = synthetic_surface(kind, 0.128, 0.048, DX, seed=seed)
+    path = tmp_path / "s.npy"
+    np.save(path, surface.heights)
+    manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
+    monkeypatch.setattr(areal, "AREAL_WINDOW_POINTS", 16 * 128)
+    options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI), tol=TOL)
+    assert process(manifest, tmp_path / "out", options, quiet=True).failed == 0
+    stated = pl.read_parquet(tmp_path / "out" / "runs" / "s" / "level_errors.parquet")
+    tile = surface.heights - plane_fits(surface.heights[None], DX, DX)[0]   # the job's tile: one, plane removed
+    rows = line_rows(48)
+    lines = remove_lines(tile[rows])[0]
+    shift = tile[rows] - lines
+    bands = stated.filter(pl.col("model") == "areal")["band"].to_numpy()
+    actual = gap(areal_levels(tile, rows, shift, 1, TOL, bands), areal_levels(tile, rows, shift, 4, 1e-10, bands))
+    worst = actual.max(axis=(0, 1))
+    estimate = stated.filter(pl.col("model") == "areal")["level_error_db"].to_numpy()
+    assert np.all(estimate >= worst - 0.02), estimate - worst
+    assert np.median(estimate / np.maximum(worst, 1e-3)) < 8   # an estimate, not a blanket bound
 
 
 def test_a_surface_too_large_for_the_pilot_is_warned_about_and_left_unestimated(

@@ -37,7 +37,7 @@ from roadtex.archive.schemas import (
     SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
 )
-from roadtex.budget.areal import SurfaceErrors, pilot_tile_indices, surface_level_errors
+from roadtex.budget.areal import SurfaceErrors, pilot_tile_indices, pilot_window, surface_level_errors
 from roadtex.budget.noise import in_budget
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
@@ -53,6 +53,7 @@ from roadtex.spectra.levels import band_levels
 from roadtex.surfaces.conditioning import clean as clean_surface
 from roadtex.surfaces.readers import read_surface
 from roadtex.surfaces.surface import Surface
+from roadtex.surfaces.tiles import plane_fits
 
 #: Lines (rows evenly spread across the surface) solved with the line model and analysed.
 SURFACE_LINES = 5
@@ -294,15 +295,21 @@ def pilot_errors(run: dict[str, Any], options: ProcessingOptions, tiles: Any, li
     """The areal pilot's error estimates of the run's levels (:mod:`roadtex.budget.areal`), or
     None (warned) when one tile is too large for it."""
     n_tiles, n_y, n_x = tiles.heights.shape
-    chosen = pilot_tile_indices(n_tiles, n_y * n_x)
+    window, inside = pilot_window(n_y, n_x, rows)
+    chosen = pilot_tile_indices(n_tiles, (window.stop - window.start) * n_x)
     if chosen.size == 0:
         warnings.warn(f"run {run['run_id']!r}: tiles of {n_y} x {n_x} points are too large for the areal error "
                       "pilot; its levels have no error estimate (level_error_db null)", ErrorBudgetWarning, stacklevel=2)
         return None
-    heights, line_heights, shift = tile_lines(tiles, chosen, lines, rows)
+    # the line model on every analysed row (cheap), the areal model on the window
+    heights, line_heights, _ = tile_lines(tiles, chosen, lines, rows)
+    heights = heights[:, window, :]
+    if window.stop - window.start < n_y:  # a strip of each tile, its own plane removed as tiles' are
+        heights = heights - plane_fits(heights, tiles.dx, tiles.dy)
+    local = rows[inside] - window.start
     reported = bands.filter(pl.col("reported"))["band"].to_numpy()
     return surface_level_errors(
-        heights, line_heights, shift, rows, tiles.dx, tiles.dy, bands=reported,
+        heights, line_heights, heights[:, local, :] - line_heights[:, inside], local, tiles.dx, tiles.dy, bands=reported,
         in_budget=in_budget(reported, tiles.dx, tiles.length, options.band_kind),
         run_rows=n_tiles * rows.size * moduli.size, youngs_moduli=moduli, mean_pressure=options.mean_pressure,
         poisson=options.poisson, tol=float(options.tol or 0.0), band_kind=options.band_kind,

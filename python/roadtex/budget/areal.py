@@ -19,8 +19,14 @@ areal model on tiles and with the line model on rows of the same tiles (see
    ``SPREAD_FACTOR``, plus the reference's own error; the larger of the enveloped and pressure
    estimates. Texture levels are the file's own (no resampling): no numerical error.
 
-The pilot is bounded: :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot tiles
-(fewer tiles when tiles are large). A tile too large for even one is not estimated (None).
+The pilot is bounded. On a wide tile it solves a *window*: a strip of the tile along its whole
+length (the same bands) and :data:`AREAL_WINDOW_POINTS` points across, centred on the analysed row
+nearest the middle, its own plane removed, solved as a periodic cell as tiles are; the areal
+estimate comes from the analysed rows inside it (the line model's, cheap, from every analysed row). The discretisation error of a row's levels depends on how
+finely the grid resolves the contact spots along it, which the strip shows as the tile does (tested
+against the whole tile). At most :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot
+tiles (fewer tiles when windows are large); a run whose window is too large for even one is not
+estimated (None).
 """
 
 from __future__ import annotations
@@ -38,10 +44,19 @@ from roadtex.spectra.levels import Method, band_levels
 #: Pilot tiles of a surface run, spread evenly along it (fewer when they are large).
 AREAL_PILOT_TILES = 3
 
-#: Largest number of surface points at half spacing over all pilot tiles (the pilot's cost: about
-#: 4 times that many points solved per modulus at tol 1e-10). 2^22: three tiles of 0.5 m x 0.1 m at
-#: 0.5 mm, one of 0.5 m x 0.1 m at 0.25 mm.
-AREAL_PILOT_POINTS = 2 ** 22
+#: Largest pilot window, in points at the run's spacing: a strip of the tile as long as the tile
+#: and this many points across (at least :data:`MIN_WINDOW_ROWS` rows). 2^15: 32 rows (16 mm at
+#: 0.5 mm) of a 0.5 m tile at 0.5 mm, the strip width checked at 1 mm (16 of 64 rows: the
+#: estimates covered the whole tile's errors on 18 surfaces; README "Error budget: surface runs").
+AREAL_WINDOW_POINTS = 2 ** 15
+
+#: Fewest rows of a pilot window.
+MIN_WINDOW_ROWS = 8
+
+#: Largest number of points at half spacing over all pilot windows (4 per point of a window): the
+#: pilot's cost, about that many points solved per modulus at tol 1e-10. 2^19: three windows of
+#: 2^15 points.
+AREAL_PILOT_POINTS = 2 ** 19
 
 MODELS = ("line", "areal")
 
@@ -83,10 +98,24 @@ class SurfaceErrors:
         return float(max((v.max() for v in values if v.size), default=0.0))
 
 
-def pilot_tile_indices(n_tiles: int, points_per_tile: int) -> np.ndarray:
+def pilot_window(n_y: int, n_x: int, rows: np.ndarray) -> tuple[slice, np.ndarray]:
+    """The rows of a tile (``n_y`` x ``n_x`` points, analysed ``rows``) the pilot solves: all of
+    them when they fit in :data:`AREAL_WINDOW_POINTS`, else a strip of that many points (at least
+    :data:`MIN_WINDOW_ROWS` rows) centred on the analysed row nearest the middle. Returns the
+    strip's rows and the positions in ``rows`` of the analysed rows inside it."""
+    count = min(n_y, max(MIN_WINDOW_ROWS, AREAL_WINDOW_POINTS // max(n_x, 1)))
+    rows = np.asarray(rows, dtype=np.int64)
+    if count >= n_y:
+        return slice(0, n_y), np.arange(rows.size)
+    centre = int(rows[np.argmin(np.abs(rows - 0.5 * (n_y - 1)))])
+    start = int(np.clip(centre - count // 2, 0, n_y - count))
+    return slice(start, start + count), np.flatnonzero((rows >= start) & (rows < start + count))
+
+
+def pilot_tile_indices(n_tiles: int, points_per_window: int) -> np.ndarray:
     """Up to :data:`AREAL_PILOT_TILES` tiles spread evenly over ``n_tiles``, as many as fit in
-    :data:`AREAL_PILOT_POINTS` at half spacing (empty: one tile does not fit)."""
-    fits = AREAL_PILOT_POINTS // (4 * max(points_per_tile, 1))
+    :data:`AREAL_PILOT_POINTS` at half spacing (empty: one window does not fit)."""
+    fits = AREAL_PILOT_POINTS // (4 * max(points_per_window, 1))
     count = min(AREAL_PILOT_TILES, n_tiles, fits)
     if count <= 0:
         return np.empty(0, dtype=np.int64)
@@ -160,11 +189,13 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     """Error estimates of a surface run's levels from its pilot tiles (see the module).
 
     Args:
-        heights: the pilot tiles as the job solves them (tiles, ny, nx; m, plane removed).
-        lines: the line model's stretches of those tiles (tiles, lines, nx; m, line removed).
-        shift: the job's move of the areal envelope's rows into the line model's frame
-            (tiles, lines, nx; m): the tile's rows minus ``lines``.
-        rows: the analysed rows of a tile (indices across the road).
+        heights: the pilot tiles (or their windows, :func:`pilot_window`) as solved (tiles, ny,
+            nx; m, plane removed).
+        lines: the line model's stretches of every analysed row of the pilot tiles (tiles, lines,
+            nx; m, each its line removed).
+        shift: the move of the areal envelope's analysed rows inside ``heights`` into the line
+            model's frame (tiles, rows, nx; m): those rows of ``heights`` minus their ``lines``.
+        rows: the analysed rows inside ``heights`` (indices in it, across the road).
         dx, dy: the run's spacings along and across the road (m).
         bands: band numbers to estimate (those the job reports); in_budget: which are budget bands.
         run_rows: rows (tiles x lines x moduli) of each model in the whole run.
