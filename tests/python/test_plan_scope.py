@@ -82,3 +82,20 @@ def test_a_pilot_that_fails_is_recorded_and_warned_about(tmp_path: Path, monkeyp
         process(mixed_manifest(tmp_path), tmp_path / "out", OPTIONS, quiet=True)
     plan = json.loads((tmp_path / "out" / "parameters.json").read_text())["plan"]
     assert plan["failed_pilots"] == {"laser / dense_asphalt": "ValueError: deliberate pilot failure 17"}
+
+
+def test_a_sampled_run_that_cannot_be_read_is_recorded_and_replaced(tmp_path: Path) -> None:
+    """The pilot samples runs spread over a group; an unreadable one is named in parameters.json
+    with why, and another run of the group takes its place (three runs are still read)."""
+    paths = [write_profile(synthetic_pavement("dense_asphalt", 0.4, 5e-4, seed=s), tmp_path / f"r{s}.csv")
+             for s in range(4)]
+    paths[0].write_text("not a profile at all\n")
+    manifest = pl.DataFrame({"path": [str(p) for p in paths], "run_id": [f"r{s}" for s in range(4)],
+                             "pavement": ["dense_asphalt"] * 4, "device": ["laser"] * 4})
+    out = tmp_path / "out"
+    summary = process(manifest, out, OPTIONS, quiet=True)
+    assert summary.failed == 1
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    assert set(plan["unread_runs"]) == {"r0"}
+    assert plan["unread_runs"]["r0"].startswith("ProfileFormatError: r0.csv:")
+    assert sorted(plan["groups"]["laser / dense_asphalt"]) == ["r1", "r2", "r3"]

@@ -83,6 +83,9 @@ class JobPlan:
         group_errors: each pilot's estimates by group name (the names of ``groups``).
         failed_pilots: group name -> why its pilot could not run (the exception's type and
             message); those groups' runs get the largest estimate of any group.
+        unread_runs: run id -> why the plan could not use a run it sampled (unreadable, or not
+            plausible road texture in metres); another run of the group took its place where
+            there was one. The run's own processing records its failure too.
     """
 
     dx: float
@@ -99,6 +102,7 @@ class JobPlan:
     groups: dict[str, list[str]] = field(default_factory=dict)
     group_errors: dict[str, GroupError] = field(default_factory=dict)
     failed_pilots: dict[str, str] = field(default_factory=dict)
+    unread_runs: dict[str, str] = field(default_factory=dict)
 
     def group_of(self, run: dict[str, Any], file_dx: float | None) -> GroupError | None:
         """The pilot group of a manifest row whose file is sampled at ``file_dx`` (m), or None
@@ -143,19 +147,29 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
     return [runs[i] for i in picks]
 
 
-def readable(runs: list[dict[str, Any]], options: ProcessingOptions) -> list[tuple[dict[str, Any], Profile]]:
-    """The runs that can be read and are plausible road texture in metres, with their profiles; a
-    run that is not is skipped here (its own processing refuses it and records why)."""
+def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
+             unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
+    """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
+    texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
+    (run id -> why) and the next run of ``runs`` not yet tried takes its place."""
+    order = spread(runs, count)
+    order += [run for run in runs if all(run is not picked for picked in order)]
     read = []
-    for run in runs:
+    for run in order:
+        if len(read) == count:
+            break
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RoadtexWarning)
                 profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
-        except Exception:  # noqa: BLE001 - the run's own processing records the failure
+        except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
+            unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
             continue
-        if implausible_texture(profile.heights, profile.dx, str(run["path"])) is None:
-            read.append((run, profile))
+        reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
+        if reason is not None:
+            unread[str(run["run_id"])] = reason
+            continue
+        read.append((run, profile))
     return read
 
 
@@ -177,10 +191,11 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         groups.setdefault(group_key(run), []).append(run)
     choices, studies, read_runs, group_errors = [], [], {}, {}
     failed: dict[str, str] = {}
+    unread: dict[str, str] = {}
     for key, members in groups.items():
         # one pilot per sampling interval within the group (a pilot compares runs on one grid)
         by_dx: dict[float, list[tuple[dict[str, Any], Profile]]] = {}
-        for run, profile in readable(spread(members, PILOT_RUNS_PER_GROUP), options):
+        for run, profile in readable(members, options, PILOT_RUNS_PER_GROUP, unread):
             by_dx.setdefault(float(f"{profile.dx:.2g}"), []).append((run, profile))
         for spacing, read in by_dx.items():
             name = key if len(by_dx) == 1 else f"{key} @ {spacing * 1e3:g} mm"
@@ -209,7 +224,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         fallback = plan_without_budget(runs, options)
         return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
                                                                       "and cut into segments)",
-                                   failed_pilots=failed), pl.DataFrame()
+                                   failed_pilots=failed, unread_runs={**unread, **fallback.unread_runs}), pl.DataFrame()
     dx = min(c.dx for c in choices)
     tol = min(c.tol for c in choices)
     bands = sorted({b for c in choices for b in c.band_error_db})
@@ -234,7 +249,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
         finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
         pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
-        failed_pilots=failed)
+        failed_pilots=failed, unread_runs=unread)
     return plan, study
 
 
@@ -242,8 +257,11 @@ def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) 
     tol = DEFAULT_TOL if options.tol is None else options.tol
     if options.dx is not None:
         return JobPlan(dx=options.dx, tol=tol, source="given")
-    read = readable(spread(runs, PLAN_SAMPLE_RUNS), options)
+    unread: dict[str, str] = {}
+    read = readable(runs, options, PLAN_SAMPLE_RUNS, unread)
     if not read:
-        return JobPlan(dx=0.5e-3, tol=tol, source="ISO 13473-1 grid (no sampled run could be read)")
+        return JobPlan(dx=0.5e-3, tol=tol, source="ISO 13473-1 grid (no sampled run could be read)",
+                       unread_runs=unread)
     return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol,
-                   source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]})
+                   source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]},
+                   unread_runs=unread)
