@@ -22,11 +22,11 @@ areal model on tiles and with the line model on rows of the same tiles (see
 The pilot is bounded. On a wide tile it solves a *window*: a strip of the tile along its whole
 length (the same bands) and :data:`AREAL_WINDOW_POINTS` points across, centred on the analysed row
 nearest the middle, its own plane removed, solved as a periodic cell as tiles are; the areal
-estimate comes from the analysed rows inside it (the line model's, cheap, from every analysed row). The discretisation error of a row's levels depends on how
-finely the grid resolves the contact spots along it, which the strip shows as the tile does (tested
-against the whole tile). At most :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot
-tiles (fewer tiles when windows are large); a run whose window is too large for even one is not
-estimated (None).
+estimate comes from the analysed rows inside it (the line model's, cheap, from every analysed
+row). The discretisation error of a row's levels depends on how finely the grid resolves the
+contact spots along it, which the strip shows as the tile does (tested against the whole tile).
+At most :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot tiles (fewer tiles when
+windows are large); a run whose window is too large for even one is not estimated (None).
 """
 
 from __future__ import annotations
