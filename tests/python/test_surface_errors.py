@@ -72,7 +72,8 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
     bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
     stated = areal.surface_level_errors(
         tile[None], lines[None], shift[None], rows, DX, DX, bands=bands, in_budget=np.ones(bands.size, bool),
-        run_rows=rows.size * MODULI.size, youngs_moduli=MODULI, mean_pressure=PRESSURE, poisson=0.5, tol=TOL,
+        run_rows=rows.size * MODULI.size, youngs_moduli=MODULI, mean_pressure=PRESSURE, poisson=0.5, tols=(TOL,),
+        budget_db=0.2,
         band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None)
     # the job's levels (file grid, tol TOL) against the same surface solved 16 (line) and 8
     # (areal) times finer each way at tol 1e-10
@@ -89,6 +90,7 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
         assert np.all(stated.level_error_db[model][sizeable] < 8 * worst[sizeable]), model
     assert stated.worst_db() == max(stated.level_error_db["line"].max(), stated.level_error_db["areal"].max())
     assert stated.work_speedup > 1.0  # tol 1e-6 costs less than tol 1e-10
+    assert stated.tol == TOL          # one candidate (a forced tol): estimated, not replaced
 
 
 def test_pilot_tiles_are_spread_and_bounded() -> None:
@@ -149,3 +151,48 @@ def test_a_surface_too_large_for_the_pilot_is_warned_about_and_left_unestimated(
     assert runs["worst_level_error_db"][0] is None and runs["within_budget"][0] is None
     assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].null_count() > 0
     assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].drop_nulls().len() == 0
+
+
+def pilot_at(tols: tuple[float, ...], budget_db: float) -> areal.SurfaceErrors:
+    surface = synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.array([0, 5, 10, 15])
+    lines = remove_lines(tile[rows])[0]
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    return areal.surface_level_errors(
+        tile[None], lines[None], (tile[rows] - lines)[None], rows, DX, DX, bands=bands,
+        in_budget=np.ones(bands.size, bool), run_rows=rows.size * MODULI.size, youngs_moduli=MODULI,
+        mean_pressure=PRESSURE, poisson=0.5, tols=tols, budget_db=budget_db, band_kind="third_octave",
+        band_method="dft", max_iterations=2000, threads=None)
+
+
+def test_the_pilot_picks_the_loosest_tolerance_the_budget_allows() -> None:
+    ladder = (1e-4, 1e-6, 1e-8, 1e-10)
+    alone = {tol: pilot_at((tol,), 0.2).worst_db() for tol in ladder}
+    floor = alone[1e-10]                      # the spacing's error alone (tol error 0 by construction)
+    assert all(alone[t] >= floor for t in ladder)
+    # a budget every candidate meets: the loosest, and the cheapest
+    loose = pilot_at(ladder, budget_db=100.0)
+    assert loose.tol == 1e-4 and loose.worst_db() == alone[1e-4]
+    assert loose.work_speedup > pilot_at((1e-8,), 100.0).work_speedup > 1.0
+    # a budget below the floor (as on the demo's 1 mm surfaces): the loosest within 5 % + 0.01 dB of it
+    tight = pilot_at(ladder, budget_db=1e-3)
+    allowed = 1.05 * floor + 0.01
+    assert tight.worst_db() <= allowed
+    assert all(alone[t] > allowed for t in ladder if t > tight.tol)
+
+
+def test_a_surface_runs_tolerance_is_chosen_by_its_pilot_unless_given(tmp_path: Path) -> None:
+    path = tmp_path / "s.npy"
+    np.save(path, synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5).heights)
+    manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
+    chosen = {}
+    for name, tol in (("free", None), ("given", 1e-8)):
+        options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI), tol=tol)
+        assert process(manifest, tmp_path / name, options, quiet=True).failed == 0
+        runs = pl.read_parquet(tmp_path / name / "runs.parquet")
+        segments = pl.read_parquet(tmp_path / name / "segments.parquet")
+        chosen[name] = runs["tol_used"][0]
+        assert (segments["residual"] <= chosen[name]).all()     # every solve met the tol the run states
+    assert chosen["given"] == 1e-8
+    assert chosen["free"] == pilot_at((1e-4, 1e-6, 1e-8, 1e-10), 0.2).tol

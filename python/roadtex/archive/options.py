@@ -58,6 +58,9 @@ class ProcessingOptions:
             few millimetres of texture is a few nanometres.
             Each segment's moduli are solved in the order given, each from the previous one's
             solution (``contact_many(warm_start=True)``): every result meets ``tol``.
+        tol_from_budget: set by the job's plan (:meth:`~roadtex.archive.plan.JobPlan.resolved`)
+            when ``tol`` was chosen by the error budget rather than given: surface runs then
+            choose their own from their areal pilot (:mod:`roadtex.budget.areal`).
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
         band_kind: "third_octave" or "octave".
         band_method: "dft" (the default: exact DFT band sums, ISO 13473-4's informative method) or
@@ -80,6 +83,7 @@ class ProcessingOptions:
     mpd_spike_alpha: float | None = 3.0
     error_budget_db: float | None = DEFAULT_ERROR_BUDGET_DB
     tol: float | None = None
+    tol_from_budget: bool = False
     max_iterations: int = 2000
     band_kind: str = "third_octave"
     band_method: str = "dft"

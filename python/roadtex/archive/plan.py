@@ -113,8 +113,10 @@ class JobPlan:
         return next((g for g in self.group_errors.values() if g.key == key and g.spacing == spacing), None)
 
     def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
-        """``options`` with the plan's interval and tolerance filled in (what the runs are solved with)."""
-        return dataclasses.replace(options, dx=self.dx, tol=self.tol)
+        """``options`` with the plan's interval and tolerance filled in (what the runs are solved
+        with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
+        return dataclasses.replace(options, dx=self.dx, tol=self.tol,
+                                   tol_from_budget=options.tol is None and options.error_budget_db is not None)
 
     def summary(self) -> dict[str, Any]:
         """The plan as JSON-ready values (parameters.json)."""

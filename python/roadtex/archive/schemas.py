@@ -94,7 +94,7 @@ RUN_COLUMNS: Columns = {
     "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
     "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
                                                   # a surface run's own dx along the road)
-    "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's)
+    "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's; a surface run's own pilot's choice)
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
     "trimmed_length": (pl.Float64(), "m"),        # cut away as reference plates (and beyond them)

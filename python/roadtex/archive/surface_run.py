@@ -12,10 +12,11 @@ How a surface run is cut and solved (documented choices):
   same road.
 - Areal band levels are taken along those rows of each tile's enveloped surface (and of its
   pressure map): ``bands.parquet`` holds one row per (model, segment, line, modulus, band).
-- The surface is solved at its own spacings ``dx``, ``dy`` and at the job's tolerance. With an
-  error budget, its levels get their own estimates from an areal pilot on a few of its tiles
-  (:mod:`roadtex.budget.areal`; the job's pilot is of line runs): ``level_errors`` per (model,
-  band), which the job joins into bands.parquet ``level_error_db`` and runs.parquet.
+- The surface is solved at its own spacings ``dx``, ``dy``. With an error budget, an areal pilot
+  on a few of its tiles (:mod:`roadtex.budget.areal`; the job's pilot is of line runs) chooses its
+  tolerance (unless the job's was given) and estimates its levels' errors: ``level_errors`` per
+  (model, band), which the job joins into bands.parquet ``level_error_db`` and runs.parquet.
+  Without one, the job's tolerance.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from roadtex.archive.schemas import (
 )
 from roadtex.budget.areal import SurfaceErrors, pilot_tile_indices, pilot_window, surface_level_errors
 from roadtex.budget.noise import in_budget
+from roadtex.budget.study import DEFAULT_TOLERANCES
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
@@ -154,6 +156,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
     errors = (run_stage("solve", lambda: pilot_errors(run, options, tiles, lines, rows, moduli, bands, threads))
               if options.error_budget_db is not None else None)
+    tol = options.tol if errors is None else errors.tol   # the pilot's choice (the given tol when forced)
     # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
     # envelopes and pressures, for every modulus, are what grows with the run's length).
     chunk = max(1, CHUNK_POINTS // (n_y * n_x))
@@ -162,8 +165,8 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     example = None
     for first in range(0, n_tiles, chunk):
         part = np.arange(first, min(first + chunk, n_tiles))
-        frames = solve_chunk(run, options, tiles, part, lines, rows, moduli, bands, frequency, line_mpd, starts,
-                             threads)
+        frames = solve_chunk(run, options, tol, tiles, part, lines, rows, moduli, bands, frequency, line_mpd,
+                             starts, threads)
         for table in ("bands", "segments"):
             for frame in frames[table]:
                 by_model[table].setdefault(frame["model"][0], []).append(frame)
@@ -180,15 +183,17 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, options.tol),
+        "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol),
     }
 
 
-def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, part: np.ndarray, lines: list[Any],
+def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, tiles: Any, part: np.ndarray,
+                lines: list[Any],
                 rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame, frequency: np.ndarray,
                 line_mpd: np.ndarray, starts: np.ndarray, threads: int | None) -> dict[str, Any]:
-    """The tiles ``part`` of a surface run solved with both models: their band and segment rows
-    (tile numbers as in the whole run), and the report's example when the middle tile is among them."""
+    """The tiles ``part`` of a surface run solved with both models at ``tol``: their band and
+    segment rows (tile numbers as in the whole run), and the report's example when the middle tile
+    is among them."""
     dx, dy = tiles.dx, tiles.dy
     n_x = tiles.heights.shape[2]
     band_frames: list[pl.DataFrame] = []
@@ -197,11 +202,11 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tiles: Any, par
     n_tiles = part.size
     areal = run_stage("solve", lambda: contact_surface_many(
         heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
-        tol=options.tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
+        tol=tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
         raise_on_nonconvergence=False))
     flat = line_heights.reshape(-1, n_x)
     line_batch = run_stage("solve", lambda: contact_many(
-        flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+        flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=tol,
         max_iterations=options.max_iterations, threads=threads, warm_start=True, raise_on_nonconvergence=False))
 
     method, kind = options.band_method, options.band_kind
@@ -312,7 +317,9 @@ def pilot_errors(run: dict[str, Any], options: ProcessingOptions, tiles: Any, li
         heights, line_heights, heights[:, local, :] - line_heights[:, inside], local, tiles.dx, tiles.dy, bands=reported,
         in_budget=in_budget(reported, tiles.dx, tiles.length, options.band_kind),
         run_rows=n_tiles * rows.size * moduli.size, youngs_moduli=moduli, mean_pressure=options.mean_pressure,
-        poisson=options.poisson, tol=float(options.tol or 0.0), band_kind=options.band_kind,
+        poisson=options.poisson, budget_db=float(options.error_budget_db or 0.0),
+        tols=DEFAULT_TOLERANCES if options.tol_from_budget else (float(options.tol or 0.0),),
+        band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
         pilot_tiles=tuple(int(t) for t in chosen))
 

@@ -1,19 +1,21 @@
 """The numerical error of a surface run's levels: an areal pilot on a few of its tiles.
 
-A surface run (3D texture) is solved at its own spacings and at the job's tolerance, with the
-areal model on tiles and with the line model on rows of the same tiles (see
-:mod:`roadtex.archive.surface_run`). Its levels get error estimates the way a line run's do
-(:mod:`roadtex.budget.study`), from a few *pilot* tiles spread evenly along the run:
+A surface run (3D texture) is solved at its own spacings, with the areal model on tiles and with
+the line model on rows of the same tiles (see :mod:`roadtex.archive.surface_run`). Its levels get
+error estimates the way a line run's do (:mod:`roadtex.budget.study`), and its solver tolerance
+is chosen as loose as the budget allows, from a few *pilot* tiles spread evenly along the run:
 
 1. **Reference**: each pilot tile (and its analysed rows, for the line model) solved at the
    reference tolerance (1e-10) at the file's spacings.
-2. **Reference's own error** (Richardson, first order): the same tiles solved at half the spacing
+2. **Reference's own error** (Richardson): the same tiles solved at half the spacing
    each way, every height repeated over a 2 x 2 block (a row's samples repeated twice for the
    line model): the same surface as the file gives, on a grid twice as fine. The areal levels
    are taken along the mean of the two fine rows of each analysed row. The reference's own error
    is :data:`RICHARDSON_FACTOR` (3) |L(h / 2) - L(h)|: surface levels converge more slowly than
    first order (2, the line runs' factor).
-3. **Tolerance**: the tiles solved at the job's tolerance; the difference from the reference.
+3. **Tolerance**: the tiles solved at each candidate tolerance, loosest first (1e-4, 1e-6, 1e-8,
+   1e-10; only the given one when the job's tol was given); the difference from the reference.
+   The first candidate within the budget is the run's (:func:`surface_level_errors`).
 4. **Estimate** per (model, band): as for line runs, the differences of the pilot rows extended
    to every row of the run (:func:`roadtex.budget.study.extreme`), the tolerance's times
    ``SPREAD_FACTOR``, plus the reference's own error; the larger of the enveloped and pressure
@@ -32,6 +34,7 @@ windows are large); a run whose window is too large for even one is not estimate
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -82,8 +85,9 @@ class SurfaceErrors:
         level_error_db: model ("line", "areal") -> upper estimate (dB) per band of the numerical
             error of that model's enveloped and pressure levels (the larger of the two), any row.
         work_speedup: the solver work (iterations x N log2 N, both models) at the reference
-            tolerance over that at the job's tol, on the pilot tiles.
+            tolerance over that at ``tol``, on the pilot tiles.
         pilot_tiles: the tiles (indices along the run) the estimate comes from.
+        tol: the solver tolerance the estimates are for (the chosen one).
     """
 
     bands: np.ndarray
@@ -91,6 +95,7 @@ class SurfaceErrors:
     level_error_db: dict[str, np.ndarray]
     work_speedup: float
     pilot_tiles: tuple[int, ...]
+    tol: float
 
     def worst_db(self) -> float:
         """The largest estimate over both models in the budget bands (dB; 0 without budget bands)."""
@@ -183,10 +188,17 @@ def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol:
 
 def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarray, rows: np.ndarray, dx: float,
                          dy: float, *, bands: np.ndarray, in_budget: np.ndarray, run_rows: int,
-                         youngs_moduli: np.ndarray, mean_pressure: float, poisson: float, tol: float,
-                         band_kind: BandKind, band_method: Method, max_iterations: int,
-                         threads: int | None, pilot_tiles: tuple[int, ...] = ()) -> SurfaceErrors:
-    """Error estimates of a surface run's levels from its pilot tiles (see the module).
+                         youngs_moduli: np.ndarray, mean_pressure: float, poisson: float,
+                         tols: Sequence[float], budget_db: float, band_kind: BandKind, band_method: Method,
+                         max_iterations: int, threads: int | None,
+                         pilot_tiles: tuple[int, ...] = ()) -> SurfaceErrors:
+    """Error estimates of a surface run's levels from its pilot tiles, at the loosest tolerance
+    that needs no more (see the module).
+
+    The candidate tolerances ``tols`` are tried loosest first; the first whose worst estimate in
+    the budget bands is within ``budget_db`` is chosen, or, when the spacing alone already errs
+    more (the floor: the estimate as tol goes to 0), within 5 % (and 0.01 dB) of that floor, as the
+    line runs' pilot does; the tightest otherwise. One candidate: it is estimated (a forced tol).
 
     Args:
         heights: the pilot tiles (or their windows, :func:`pilot_window`) as solved (tiles, ny,
@@ -199,34 +211,56 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         dx, dy: the run's spacings along and across the road (m).
         bands: band numbers to estimate (those the job reports); in_budget: which are budget bands.
         run_rows: rows (tiles x lines x moduli) of each model in the whole run.
-        youngs_moduli, mean_pressure, poisson, tol, band_kind, band_method, max_iterations,
-            threads: as the job solves and analyses the run (Pa, Pa, 1, relative residual).
+        tols: candidate solver tolerances (relative residual).
+        budget_db: the error budget (dB).
+        youngs_moduli, mean_pressure, poisson, band_kind, band_method, max_iterations, threads: as
+            the job solves and analyses the run (Pa, Pa, 1).
         pilot_tiles: the tiles' indices along the run (recorded).
 
     Returns:
-        A :class:`SurfaceErrors`.
+        A :class:`SurfaceErrors` at the chosen tolerance.
     """
     setup = _Setup(np.asarray(youngs_moduli, dtype=np.float64), mean_pressure, poisson, band_kind, band_method,
                    max_iterations, threads)
     flat = lines.reshape(-1, lines.shape[-1])
-    estimates: dict[str, np.ndarray] = {}
-    work = {"reference": 0.0, "job": 0.0}
-    for model in MODELS:
+    budget_mask = np.asarray(in_budget, dtype=bool)
+
+    def solve(model: str, tol: float, factor: int = 1) -> tuple[np.ndarray, np.ndarray, float]:
         if model == "line":
-            reference, _, w_ref = _line_levels(setup, flat, dx, REFERENCE_TOL, bands)
-            at_tol, ok_tol, w_job = _line_levels(setup, flat, dx, tol, bands)
-            halved, ok_half, _ = _line_levels(setup, np.repeat(flat, 2, axis=-1), dx / 2, REFERENCE_TOL, bands)
-        else:
-            reference, _, w_ref = _areal_levels(setup, heights, dx, dy, REFERENCE_TOL, rows, 1, shift, bands)
-            at_tol, ok_tol, w_job = _areal_levels(setup, heights, dx, dy, tol, rows, 1, shift, bands)
-            halved, ok_half, _ = _areal_levels(setup, heights, dx, dy, REFERENCE_TOL, rows, 2, shift, bands)
-        work["reference"] += w_ref
-        work["job"] += w_job
-        # Richardson: L(h) - L(0) ~ factor (L(h) - L(h / 2))
-        own = RICHARDSON_FACTOR * extreme(np.moveaxis(np.where(ok_half, difference(halved, reference), np.nan), 1, 0), run_rows)
-        by_tol = extreme(np.moveaxis(np.where(ok_tol, difference(at_tol, reference), np.nan), 1, 0), run_rows)
-        estimate = (SPREAD_FACTOR * by_tol + own).max(axis=0)
-        estimates[model] = np.where(np.isfinite(estimate), estimate, np.inf)
-    speedup = work["reference"] / work["job"] if work["job"] > 0 else 1.0
-    return SurfaceErrors(np.asarray(bands), np.asarray(in_budget, dtype=bool), estimates, float(speedup),
-                         tuple(int(t) for t in pilot_tiles))
+            return _line_levels(setup, np.repeat(flat, factor, axis=-1), dx / factor, tol, bands)
+        return _areal_levels(setup, heights, dx, dy, tol, rows, factor, shift, bands)
+
+    def spread(measured: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        """(2, bands): the differences (2, pilot rows, bands) extended to every row of the run."""
+        return extreme(np.moveaxis(np.where(ok, measured, np.nan), 1, 0), run_rows)
+
+    reference = {model: solve(model, REFERENCE_TOL) for model in MODELS}
+    # Richardson: L(h) - L(0) ~ factor (L(h) - L(h / 2)); the spacing's part of every estimate
+    own = {}
+    for model in MODELS:
+        halved, ok_half, _ = solve(model, REFERENCE_TOL, factor=2)
+        own[model] = RICHARDSON_FACTOR * spread(difference(halved, reference[model][0]), ok_half)
+
+    def worst(estimates: dict[str, np.ndarray]) -> float:
+        values = [np.where(np.isfinite(e), e, np.inf)[budget_mask] for e in estimates.values()]
+        return float(max((v.max() for v in values if v.size), default=0.0))
+
+    floor = worst({m: own[m].max(axis=0) for m in MODELS})
+    allowed = max(budget_db, 1.05 * floor + 0.01)
+    candidates = sorted(tols, reverse=True)
+    for tol in candidates:
+        estimates, job_work = {}, 0.0
+        for model in MODELS:
+            if tol <= REFERENCE_TOL:   # the reference itself: no tolerance error left to measure
+                levels, ok, w = reference[model]
+            else:
+                levels, ok, w = solve(model, tol)
+            job_work += w
+            estimate = (SPREAD_FACTOR * spread(difference(levels, reference[model][0]), ok) + own[model]).max(axis=0)
+            estimates[model] = np.where(np.isfinite(estimate), estimate, np.inf)
+        if worst(estimates) <= allowed or tol == candidates[-1]:
+            break
+    reference_work = sum(reference[m][2] for m in MODELS)
+    speedup = reference_work / job_work if job_work > 0 else 1.0
+    return SurfaceErrors(np.asarray(bands), budget_mask, estimates, float(speedup),
+                         tuple(int(t) for t in pilot_tiles), float(tol))
