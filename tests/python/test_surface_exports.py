@@ -175,3 +175,20 @@ def test_readme_commands_on_a_folder_of_surfaces_profiles_and_a_broken_file(tmp_
     lab_run = runs.filter(pl.col("run_id") == "lab_scan").row(0, named=True)
     assert lab_run["file_dx"] == pytest.approx(1e-3, rel=1e-12) and lab_run["length"] == pytest.approx(0.5, rel=1e-12)
     assert report_step.returncode == 0, report_step.stderr[-2000:]
+
+
+def test_a_surface_in_the_wrong_unit_warns_as_a_profile_does(tmp_path: Path, surface: np.ndarray) -> None:
+    import warnings
+
+    from roadtex.errors import ImplausibleTextureWarning
+
+    np.save(tmp_path / "scan.npy", surface * 1e3)                     # millimetres, no unit given
+    with pytest.warns(ImplausibleTextureWarning, match=r"scan\.npy \(surface row .*millimetres"):
+        read_surface(tmp_path / "scan.npy", dx=0.5e-3)
+    codes = {(2, 3): "-9999.0", (4, 5): "-850.0"}                    # drop-out codes are left out
+    (tmp_path / "codes.csv").write_text("\n".join(["x (mm),y (mm),z (mm)", *long_lines(surface, 0.5, 0.5,
+                                                                                      tokens=codes)]) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleTextureWarning)
+        np.testing.assert_allclose(read_surface(tmp_path / "scan.npy", dx=0.5e-3, height_unit="mm").heights, surface)
+        assert read_surface(tmp_path / "codes.csv").heights[2, 3] == pytest.approx(-9.999)

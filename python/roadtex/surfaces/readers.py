@@ -10,6 +10,7 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError
 from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.readers import file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
 from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
@@ -106,6 +107,11 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
       road's geometry, not its texture): u along the road is x, v across is y (rows from right to
       left, v increasing).
 
+    Warns:
+        ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
+            (millimetres read as metres or as micrometres, distances in millimetres read as
+            metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does.
+
     Raises:
         ProfileFormatError: the file is missing, empty, unreadable, not a grid, or has no usable
             column (the message names the file).
@@ -131,6 +137,8 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
         if str(exc).startswith(name):
             raise
         raise type(exc)(f"{name}: {exc}") from None
+    # as read_profile: heights or spacings in the wrong unit warn (the bulk job refuses the run)
+    warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True)
     return surface
 
 
