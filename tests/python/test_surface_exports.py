@@ -158,6 +158,7 @@ def test_readme_commands_on_a_folder_of_surfaces_profiles_and_a_broken_file(tmp_
     assert "3-D surfaces" in manifest_step.stdout
     # the surfaces that cannot be read as they are, with the reason, and nothing about the others
     assert "no_spacing.npy: a .npy surface needs dx" in manifest_step.stderr
+    assert "manifest columns dx and dy, or a no_spacing.npy.json sidecar" in manifest_step.stderr
     assert "broken.csv: column 'z (mm)'" in manifest_step.stderr and "lab_scan" not in manifest_step.stderr
     manifest = pl.read_csv(tmp_path / "manifest.csv")
     formats = dict(zip([Path(p).name for p in manifest["path"]], manifest["format"]))

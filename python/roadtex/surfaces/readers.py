@@ -164,7 +164,9 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
                                  f"2 columns, got shape {array.shape} (a line profile? use read_profile)")
     metadata, history, options = read_sidecar(path, options, ("dx", "dy", "height_unit"))
     if options.get("dx") is None:
-        raise InvalidInputError("a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx)")
+        raise InvalidInputError(f"a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx): "
+                                f"give it as read_surface's dx, the bulk job's manifest columns dx and dy, or a "
+                                f"{name}.json sidecar ({{\"dx\": ..., \"dy\": ...}})")
     dx = positive(options["dx"], "dx")
     dy = positive(options["dy"], "dy") if options.get("dy") is not None else dx
     factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
