@@ -193,3 +193,22 @@ def test_a_surface_in_the_wrong_unit_warns_as_a_profile_does(tmp_path: Path, sur
         warnings.simplefilter("error", ImplausibleTextureWarning)
         np.testing.assert_allclose(read_surface(tmp_path / "scan.npy", dx=0.5e-3, height_unit="mm").heights, surface)
         assert read_surface(tmp_path / "codes.csv").heights[2, 3] == pytest.approx(-9.999)
+
+
+def test_blank_separated_point_lists_read_as_the_csv(tmp_path: Path, surface: np.ndarray) -> None:
+    """x y z point lists as scanners write them: blanks between fields, names with units in brackets,
+    padded columns, or no header at all (x, y, z in that order)."""
+    spaced = [line.replace(",", "  ") for line in long_lines(surface, 0.5, 0.5)]
+    (tmp_path / "named.txt").write_text("\n".join(["x (mm) y (mm) z (mm)", *spaced]) + "\n")
+    (tmp_path / "padded.txt").write_text("\n".join(["   x   y   z", *[f"  {line}  " for line in spaced]]) + "\n")
+    (tmp_path / "bare.txt").write_text("\n".join(spaced) + "\n")
+    assert is_surface_file(tmp_path / "named.txt") and is_surface_file(tmp_path / "padded.txt")
+    for name in ("named.txt", "padded.txt", "bare.txt"):
+        s = read_surface(tmp_path / name, distance_unit="mm", height_unit="mm")
+        assert s.shape == surface.shape and s.dx == pytest.approx(0.5e-3, rel=1e-12)
+        np.testing.assert_allclose(s.heights, surface, rtol=0, atol=0.51e-7)
+    (tmp_path / "mixed.txt").write_text("x_mm y_mm z_mm\n" + "\n".join(line.replace("  ", "\t", 1)
+                                                                       for line in spaced) + "\n")
+    with pytest.raises(ProfileFormatError, match=r"mixed\.txt: the header .* has 1 fields but the first data row "
+                                                 r"has 2 .*mixes separators"):
+        read_surface(tmp_path / "mixed.txt")

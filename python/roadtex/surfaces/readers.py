@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,25 @@ WHERE_COLUMNS = "a read_surface option; the bulk job finds x, y, z by name: rena
 NULL_TOKENS = sorted({token for t in DROPOUT_TOKENS for token in (t, t.upper(), t.capitalize())} | {"NaN"})
 
 
+def blank_fields(line: str) -> list[str]:
+    """The fields of a blank-separated line; a unit in brackets after a name stays with it
+    (``x (mm) y (mm) z (mm)`` is three names)."""
+    return re.findall(r"[^\s\(\[]+(?:\s*[\(\[][^\)\]]*[\)\]])?|[\(\[][^\)\]]*[\)\]]", line)
+
+
+def tab_separated(data: bytes, header: bool) -> bytes:
+    """Blank-separated text (an x y z point list) as tab-separated text; the header (the first line
+    that is neither blank nor a ``#`` comment) split by :func:`blank_fields`."""
+    lines = data.split(b"\n")
+    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith(b"#")), None)
+    body = re.sub(rb"[ \t]+", b"\t", re.sub(rb"(?m)^[ \t]+|[ \t]+(?=\r?$)", b"", data))
+    if not header or first is None:
+        return body
+    out = body.split(b"\n")
+    out[first] = "\t".join(blank_fields(lines[first].decode("utf-8", "replace").strip())).encode()
+    return b"\n".join(out)
+
+
 def is_surface_file(path: str | Path) -> bool:
     """Whether a file holds a 3-D surface rather than a line profile, from its structure alone:
     an OpenCRG file, a 2-D ``.npy`` that is not (N, 2) distance/height pairs, or a table (CSV,
@@ -60,9 +81,10 @@ def is_surface_file(path: str | Path) -> bool:
             lines, _ = first_lines(head.removeprefix(b"\xef\xbb\xbf"), 50)
             data_lines = [line for line in lines if line.strip() and not line.lstrip().startswith(b"#")]
             separator = sniff_separator(data_lines)
-            if not data_lines or separator == " ":
+            if not data_lines:
                 return False
-            names = [f.strip().strip('"') for f in data_lines[0].decode("utf-8", "replace").split(separator)]
+            text = data_lines[0].decode("utf-8", "replace")
+            names = blank_fields(text) if separator == " " else [f.strip().strip('"') for f in text.split(separator)]
     except Exception:  # noqa: BLE001 - not readable as a surface: the profile reader reports it
         return False
     bases = [split_column_name(n)[0] for n in names]
@@ -100,7 +122,8 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
       the header (``"x (mm)"``, ``"z [um]"``, ``"z_mm"``) or ``distance_unit`` / ``height_unit``.
       The positions must lie on a regular grid (grid nodes without a row are drop-outs); the
       spacings are found from the data (``dx``, ``dy`` override them). CSV: the separator (tab,
-      ``;``, ``,``) is sniffed; ``#`` lines are comments.
+      ``;``, ``,``, or blanks: an ``x y z`` point list) and a decimal comma are sniffed; ``#`` lines
+      are comments; without a header the columns are x, y, z in that order.
     - ``"crg"``: ASAM OpenCRG through the ``pycrg`` package (``pip install pycrg``), which wraps the
       reference C library; all four data formats. The grid is read as stored (no modifiers applied)
       and ``z`` is taken relative to the reference line (its slope, banking and curvature are the
@@ -214,12 +237,25 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
             lines, _ = first_lines(path.read_bytes()[:65536].removeprefix(b"\xef\xbb\xbf"), 50)
             data_lines = [line for line in lines if line.strip() and not line.lstrip().startswith(b"#")]
             separator = sniff_separator(data_lines)
-            if separator == " ":
-                raise ProfileFormatError(f"{name}: no tab, ';' or ',' separated columns found")
+            source: Path | io.BytesIO = path
+            if separator == " ":   # an x y z point list: blanks between the fields
+                first = blank_fields(data_lines[0].decode("utf-8", "replace")) if data_lines else []
+                header = not all(is_number(f) or is_number(f, ",") for f in first)
+                source = io.BytesIO(tab_separated(path.read_bytes().removeprefix(b"\xef\xbb\xbf"), header))
+                separator = "\t"
+                data_lines = [re.sub(rb"[ \t]+", b"\t", line.strip()) for line in data_lines]
+                if header:
+                    data_lines[0] = "\t".join(first).encode()
             decimal = sniff_decimal(data_lines[1:6] or data_lines[:1], separator)
             first = [f.strip().strip('"') for f in data_lines[0].decode("utf-8", "replace").split(separator)]
             header = not all(is_number(f, decimal) for f in first)
-            frame = pl.read_csv(path, separator=separator, comment_prefix="#", null_values=NULL_TOKENS,
+            if header and len(data_lines) > 1:
+                fields = len(data_lines[1].split(separator.encode()))
+                if fields != len(first):
+                    raise ProfileFormatError(f"{name}: the header {first} has {len(first)} fields but the first data "
+                                             f"row has {fields} with the separator {separator!r}: the file mixes "
+                                             "separators or decimal marks")
+            frame = pl.read_csv(source, separator=separator, comment_prefix="#", null_values=NULL_TOKENS,
                                 infer_schema_length=10000, decimal_comma=decimal == ",", has_header=header)
             if not header:
                 frame.columns = [f"column_{i + 1}" for i in range(frame.width)]
