@@ -212,3 +212,11 @@ def test_blank_separated_point_lists_read_as_the_csv(tmp_path: Path, surface: np
     with pytest.raises(ProfileFormatError, match=r"mixed\.txt: the header .* has 1 fields but the first data row "
                                                  r"has 2 .*mixes separators"):
         read_surface(tmp_path / "mixed.txt")
+
+
+def test_an_xyz_point_list_saved_as_npy_is_not_read_as_a_grid(tmp_path: Path, surface: np.ndarray) -> None:
+    iy, ix = np.indices(surface.shape)
+    np.save(tmp_path / "points.npy", np.column_stack([ix.ravel() * 0.5e-3, iy.ravel() * 0.5e-3, surface.ravel()]))
+    assert is_surface_file(tmp_path / "points.npy")                    # a surface run: it fails saying why
+    with pytest.raises(ProfileFormatError, match=r"points\.npy: shape \(4000, 3\): an x, y, z point list"):
+        read_surface(tmp_path / "points.npy", dx=0.5e-3)

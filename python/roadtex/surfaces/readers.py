@@ -185,6 +185,10 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
     if array.ndim != 2 or array.shape[1] < 2:
         raise ProfileFormatError(f"{name}: a surface .npy must be 2-D [rows across, columns along] with at least "
                                  f"2 columns, got shape {array.shape} (a line profile? use read_profile)")
+    if array.shape[1] == 3 and array.shape[0] > 3:
+        raise ProfileFormatError(f"{name}: shape {array.shape}: an x, y, z point list? A surface .npy is a grid "
+                                 "heights[iy, ix] (rows across the road, columns along it); write the points as a "
+                                 "long table (CSV or Parquet with x, y, z columns)")
     metadata, history, options = read_sidecar(path, options, ("dx", "dy", "height_unit"))
     if options.get("dx") is None:
         raise InvalidInputError(f"a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx): "
