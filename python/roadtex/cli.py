@@ -132,31 +132,41 @@ def manifest_command(args: argparse.Namespace) -> int:
         return 2
     table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
-    unreadable = [path for path, fmt in zip(table["path"], table["format"])
-                  if fmt is None and Path(path).suffix.lower() != ".crg"]
-    if unreadable:
-        print(f"roadtex manifest: warning: {len(unreadable)} of the files cannot be read as they are; they are listed, "
+    surfaces = sum(fmt == "surface" for fmt in table["format"])
+    if surfaces:
+        print(f"roadtex manifest: {surfaces} of them 3-D surfaces (format 'surface'; dx, dy in m and units as "
+              "manifest columns where the file has none)")
+    problems = [problem for path, fmt in zip(table["path"], table["format"])
+                if fmt is None or fmt == "surface"
+                for problem in [read_problem(path, surface=fmt == "surface")] if problem is not None]
+    if problems:
+        print(f"roadtex manifest: warning: {len(problems)} of the files cannot be read as they are; they are listed, "
               "and roadtex process records them as failed unless the manifest gives what they need:", file=sys.stderr)
-        for path in unreadable[:10]:
-            print(f"  {read_problem(path)}", file=sys.stderr)
-        if len(unreadable) > 10:
-            print(f"  ... and {len(unreadable) - 10} more", file=sys.stderr)
+        for problem in problems[:10]:
+            print(f"  {problem}", file=sys.stderr)
+        if len(problems) > 10:
+            print(f"  ... and {len(problems) - 10} more", file=sys.stderr)
     return 0
 
 
-def read_problem(path: str) -> str:
-    """Why a profile file cannot be read with the default options (the reader's message names it)."""
+def read_problem(path: str, *, surface: bool = False) -> str | None:
+    """Why a profile file (or with ``surface`` a 3-D surface file) cannot be read with the default
+    options (the reader's message names it); None when it reads."""
     import warnings
 
     from roadtex.profiles.readers import read_profile
+    from roadtex.surfaces.readers import read_surface
 
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            read_profile(path)
+            if surface:
+                read_surface(path)
+            else:
+                read_profile(path)
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported, not raised
         return str(exc)
-    return f"{Path(path).name}: read now"   # changed since it was listed
+    return None if surface else f"{Path(path).name}: read now"   # a profile listed unreadable reads now
 
 
 def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
@@ -261,8 +271,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", default=None, help="report folder (default RESULTS/report)")
     r.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     r.set_defaults(run=report_command)
-    m = commands.add_parser("manifest", help="list a folder's profile files as a manifest CSV")
-    m.add_argument("folder", help="folder with profile files")
+    m = commands.add_parser("manifest", help="list a folder's profile and 3-D surface files as a manifest CSV")
+    m.add_argument("folder", help="folder with profile and surface files (surfaces get format 'surface')")
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)

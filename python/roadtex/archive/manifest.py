@@ -11,6 +11,7 @@ import polars as pl
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.errors import ManifestError
 from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
@@ -132,12 +133,14 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
 def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, read_metadata: bool = True) -> pl.DataFrame:
     """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
 
-    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg (OpenCRG surfaces,
-    processed as 3D surface runs) are listed, except
-    hidden files and files named ``manifest*`` (a manifest kept beside its data). With
+    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg are listed, except
+    hidden files and files named ``manifest*`` (a manifest kept beside its data). 3-D surfaces
+    (:func:`roadtex.surfaces.readers.is_surface_file`: OpenCRG, a 2-D ``.npy``, a table with x,
+    y and z columns) get ``format`` "surface" and are processed as surface runs. With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
-    device, direction) fills the manifest columns, and ``format`` is the one it was read as; a
-    file that cannot be read is still listed (``format`` null), so the job records why it fails.
+    device, direction) fills the manifest columns, and a profile's ``format`` is the one it was
+    read as; a profile that cannot be read is still listed (``format`` null), as is a surface
+    (``format`` "surface"), so the job records why it fails.
 
     Returns:
         A manifest DataFrame with absolute paths; save it with ``write_csv`` and edit it freely.
@@ -153,12 +156,20 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     rows = []
     for path in files:
         row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
-        if read_metadata and path.suffix.lower() != ".crg":   # a surface: its run reads it
+        # a 3-D surface (OpenCRG, 2-D .npy, a table of x, y, z columns) is a surface run, whether
+        # or not it reads as it is (a .npy without dx): the job then records why it fails
+        surface = path.suffix.lower() == ".crg" or is_surface_file(path)
+        if surface:
+            row["format"] = "surface"
+        if read_metadata:
             try:
-                metadata = read_profile(path).metadata
-                # the format the file was read as, so that runs.parquet says it (its metadata's
-                # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
-                row["format"] = guess_format(path, file_head(path))
+                if surface:
+                    metadata = read_surface(path).metadata
+                else:
+                    metadata = read_profile(path).metadata
+                    # the format the file was read as, so that runs.parquet says it (its metadata's
+                    # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
+                    row["format"] = guess_format(path, file_head(path))
             except Exception:  # listed anyway: the job records why it fails
                 metadata = {}
             for name in METADATA_COLUMNS:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,10 +12,11 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError
 from roadtex.profiles.conditioning import format_number
-from roadtex.profiles.readers import file_head
-from roadtex.profiles.readers.delimited import sniff_separator
+from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.readers import file_head, guess_format
+from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
 from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
-from roadtex.profiles.readers.text import column_unit, first_lines, pick_column
+from roadtex.profiles.readers.text import DROPOUT_TOKENS, column_unit, first_lines, pick_column, split_column_name
 from roadtex.profiles.units import unit_factor
 from roadtex.surfaces.surface import Surface
 
@@ -28,8 +31,64 @@ SURFACE_READ_OPTIONS: dict[str, type] = {
 X_NAMES = ("x", "distance", "position", "longitudinal", "along", "chainage", "u")
 Y_NAMES = ("y", "lateral", "transverse", "across", "offset", "v")
 Z_NAMES = ("z", "height", "elevation", "h", "texture")
-#: Grid positions must sit within this fraction of a spacing of a grid node.
-GRID_TOLERANCE = 1e-3
+#: Grid positions must sit within this fraction of a spacing of a grid node (text exports round
+#: positions: 0.0375 mm steps written to 0.001 mm are up to 1.3 % off the grid, 0.01 mm steps 5 %).
+GRID_TOLERANCE = 0.1
+#: Where a long table's column options are given (the bulk job finds columns by name only).
+WHERE_COLUMNS = "a read_surface option; the bulk job finds x, y, z by name: rename the column in the file"
+#: Cells read as drop-outs (missing heights) in CSV long tables, as the profile reader reads them.
+NULL_TOKENS = sorted({token for t in DROPOUT_TOKENS for token in (t, t.upper(), t.capitalize())} | {"NaN"})
+
+
+def blank_fields(line: str) -> list[str]:
+    """The fields of a blank-separated line; a unit in brackets after a name stays with it
+    (``x (mm) y (mm) z (mm)`` is three names)."""
+    return re.findall(r"[^\s\(\[]+(?:\s*[\(\[][^\)\]]*[\)\]])?|[\(\[][^\)\]]*[\)\]]", line)
+
+
+def tab_separated(data: bytes, header: bool) -> bytes:
+    """Blank-separated text (an x y z point list) as tab-separated text; the header (the first line
+    that is neither blank nor a ``#`` comment) split by :func:`blank_fields`."""
+    lines = data.split(b"\n")
+    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith(b"#")), None)
+    body = re.sub(rb"[ \t]+", b"\t", re.sub(rb"(?m)^[ \t]+|[ \t]+(?=\r?$)", b"", data))
+    if not header or first is None:
+        return body
+    out = body.split(b"\n")
+    out[first] = "\t".join(blank_fields(lines[first].decode("utf-8", "replace").strip())).encode()
+    return b"\n".join(out)
+
+
+def is_surface_file(path: str | Path) -> bool:
+    """Whether a file holds a 3-D surface rather than a line profile, from its structure alone:
+    an OpenCRG file, a 2-D ``.npy`` that is not (N, 2) distance/height pairs, or a table (CSV,
+    TSV, Parquet) whose header names an x, a y and a z column (see :data:`X_NAMES` ...).
+    Unreadable files are not surfaces (the profile reader then says why)."""
+    file = Path(path)
+    try:
+        head = file_head(file, 4096)
+        fmt = guess_surface_format(file, head)
+        if fmt == "crg":
+            return True
+        if fmt == "npy":
+            shape = np.load(file, mmap_mode="r", allow_pickle=False).shape
+            return len(shape) == 2 and shape[0] > 1 and shape[1] > 2
+        if fmt == "parquet":
+            names = pl.read_parquet_schema(file).names()
+        else:
+            if guess_format(file, head) == "captif":
+                return False
+            lines, _ = first_lines(head.removeprefix(b"\xef\xbb\xbf"), 50)
+            data_lines = [line for line in lines if line.strip() and not line.lstrip().startswith(b"#")]
+            separator = sniff_separator(data_lines)
+            if not data_lines:
+                return False
+            text = data_lines[0].decode("utf-8", "replace")
+            names = blank_fields(text) if separator == " " else [f.strip().strip('"') for f in text.split(separator)]
+    except Exception:  # noqa: BLE001 - not readable as a surface: the profile reader reports it
+        return False
+    bases = [split_column_name(n)[0] for n in names]
+    return all(any(s in bases for s in synonyms) for synonyms in (X_NAMES, Y_NAMES, Z_NAMES))
 
 
 def guess_surface_format(path: Path, head: bytes) -> str:
@@ -63,12 +122,18 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
       the header (``"x (mm)"``, ``"z [um]"``, ``"z_mm"``) or ``distance_unit`` / ``height_unit``.
       The positions must lie on a regular grid (grid nodes without a row are drop-outs); the
       spacings are found from the data (``dx``, ``dy`` override them). CSV: the separator (tab,
-      ``;``, ``,``) is sniffed; ``#`` lines are comments.
+      ``;``, ``,``, or blanks: an ``x y z`` point list) and a decimal comma are sniffed; ``#`` lines
+      are comments; without a header the columns are x, y, z in that order.
     - ``"crg"``: ASAM OpenCRG through the ``pycrg`` package (``pip install pycrg``), which wraps the
       reference C library; all four data formats. The grid is read as stored (no modifiers applied)
       and ``z`` is taken relative to the reference line (its slope, banking and curvature are the
       road's geometry, not its texture): u along the road is x, v across is y (rows from right to
       left, v increasing).
+
+    Warns:
+        ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
+            (millimetres read as metres or as micrometres, distances in millimetres read as
+            metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does.
 
     Raises:
         ProfileFormatError: the file is missing, empty, unreadable, not a grid, or has no usable
@@ -95,6 +160,8 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
         if str(exc).startswith(name):
             raise
         raise type(exc)(f"{name}: {exc}") from None
+    # as read_profile: heights or spacings in the wrong unit warn (the bulk job refuses the run)
+    warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True)
     return surface
 
 
@@ -118,9 +185,15 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
     if array.ndim != 2 or array.shape[1] < 2:
         raise ProfileFormatError(f"{name}: a surface .npy must be 2-D [rows across, columns along] with at least "
                                  f"2 columns, got shape {array.shape} (a line profile? use read_profile)")
+    if array.shape[1] == 3 and array.shape[0] > 3:
+        raise ProfileFormatError(f"{name}: shape {array.shape}: an x, y, z point list? A surface .npy is a grid "
+                                 "heights[iy, ix] (rows across the road, columns along it); write the points as a "
+                                 "long table (CSV or Parquet with x, y, z columns)")
     metadata, history, options = read_sidecar(path, options, ("dx", "dy", "height_unit"))
     if options.get("dx") is None:
-        raise InvalidInputError("a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx)")
+        raise InvalidInputError(f"a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx): "
+                                f"give it as read_surface's dx, the bulk job's manifest columns dx and dy, or a "
+                                f"{name}.json sidecar ({{\"dx\": ..., \"dy\": ...}})")
     dx = positive(options["dx"], "dx")
     dy = positive(options["dy"], "dy") if options.get("dy") is not None else dx
     factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
@@ -128,15 +201,26 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
 
 
 def grid_index(values: np.ndarray, given: float | None, what: str, name: str) -> tuple[np.ndarray, float, float]:
-    """Index of each position on a regular grid, the spacing and the first node; refuses non-grids."""
+    """Index of each position on a regular grid, the spacing and the first node; refuses non-grids.
+
+    Without ``given``, the spacing is the span over the number of grid steps (each gap between
+    neighbouring positions counted in steps of their median gap), so positions rounded in a text
+    export still give the grid's spacing."""
     unique = np.unique(values)
     if unique.size < 2 and given is None:
         raise ProfileFormatError(f"{name}: every {what} position is {unique[0]:.6g} m: give the spacing d{what}")
+    start = float(unique[0])
     if given is not None:
         step = positive(given, f"d{what}")
     else:
-        step = float(np.min(np.diff(unique)))
-    start = float(unique[0])
+        gaps = np.diff(unique)
+        steps = np.maximum(np.rint(gaps / np.median(gaps)), 1.0)
+        step = float((unique[-1] - unique[0]) / steps.sum())
+        if unique.size > 2:   # the least-squares line through (node, position): rounding averages out
+            nodes = np.concatenate([[0.0], np.cumsum(steps)])
+            mean_n, mean_u = float(np.sum(nodes)) / nodes.size, float(np.sum(unique)) / unique.size
+            step = float(np.sum((nodes - mean_n) * (unique - mean_u)) / np.sum((nodes - mean_n) ** 2))
+            start = mean_u - step * mean_n
     scaled = (values - start) / step
     index = np.rint(scaled)
     off = np.abs(scaled - index)
@@ -154,13 +238,31 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
         if fmt == "parquet":
             frame = pl.read_parquet(path)
         else:
-            lines, _ = first_lines(path.read_bytes()[:65536], 50)
+            lines, _ = first_lines(path.read_bytes()[:65536].removeprefix(b"\xef\xbb\xbf"), 50)
             data_lines = [line for line in lines if line.strip() and not line.lstrip().startswith(b"#")]
             separator = sniff_separator(data_lines)
-            if separator == " ":
-                raise ProfileFormatError(f"{name}: no tab, ';' or ',' separated columns found")
-            frame = pl.read_csv(path, separator=separator, comment_prefix="#", null_values=["", "NaN", "nan", "NA"],
-                                infer_schema_length=10000)
+            source: Path | io.BytesIO = path
+            if separator == " ":   # an x y z point list: blanks between the fields
+                first = blank_fields(data_lines[0].decode("utf-8", "replace")) if data_lines else []
+                header = not all(is_number(f) or is_number(f, ",") for f in first)
+                source = io.BytesIO(tab_separated(path.read_bytes().removeprefix(b"\xef\xbb\xbf"), header))
+                separator = "\t"
+                data_lines = [re.sub(rb"[ \t]+", b"\t", line.strip()) for line in data_lines]
+                if header:
+                    data_lines[0] = "\t".join(first).encode()
+            decimal = sniff_decimal(data_lines[1:6] or data_lines[:1], separator)
+            first = [f.strip().strip('"') for f in data_lines[0].decode("utf-8", "replace").split(separator)]
+            header = not all(is_number(f, decimal) for f in first)
+            if header and len(data_lines) > 1:
+                fields = len(data_lines[1].split(separator.encode()))
+                if fields != len(first):
+                    raise ProfileFormatError(f"{name}: the header {first} has {len(first)} fields but the first data "
+                                             f"row has {fields} with the separator {separator!r}: the file mixes "
+                                             "separators or decimal marks")
+            frame = pl.read_csv(source, separator=separator, comment_prefix="#", null_values=NULL_TOKENS,
+                                infer_schema_length=10000, decimal_comma=decimal == ",", has_header=header)
+            if not header:
+                frame.columns = [f"column_{i + 1}" for i in range(frame.width)]
     except ProfileFormatError:
         raise
     except Exception as exc:
@@ -169,23 +271,52 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
     if frame.height == 0:
         raise ProfileFormatError(f"{name}: the table has no rows")
     names = frame.columns
+    headerless = fmt != "parquet" and not header
+    if headerless and frame.width != 3 and not all(options.get(f"{r}_column") is not None for r in "xyz"):
+        grid = (f"; {frame.width} columns: a grid of heights (one line per row across the road)? Save it as a 2-D "
+                ".npy (numpy.save) and give dx and dy" if frame.width > 3 else "")
+        raise ProfileFormatError(f"{name}: no header, and not 3 columns (x, y, z in that order){grid}. read_surface "
+                                 "reads long tables (one row per reading: x along, y across, z), 2-D .npy and OpenCRG")
     picked = []
     for role, synonyms in (("x", X_NAMES), ("y", Y_NAMES), ("z", Z_NAMES)):
-        index = pick_column(names, options.get(f"{role}_column"), synonyms, role, True)
+        given = options.get(f"{role}_column")
+        try:
+            index = pick_column(names, "xyz".index(role) if headerless and given is None else given, synonyms, role,
+                                True, where=WHERE_COLUMNS)
+        except ProfileFormatError:
+            if frame.width > 3 and not any(split_column_name(n)[0] in X_NAMES + Y_NAMES + Z_NAMES for n in names):
+                raise ProfileFormatError(
+                    f"{name}: {frame.width} columns and none named x, y or z (the first: {names[:3]}): a grid of "
+                    "heights (one line per row across the road)? read_surface reads long tables (one row per "
+                    "reading: x along, y across, z), 2-D .npy (save the grid with numpy.save and give dx and dy) "
+                    "and OpenCRG") from None
+            raise
         assert index is not None
         picked.append(index)
     if len(set(picked)) < 3:
         raise ProfileFormatError(f"{name}: x, y and z must be three different columns, got {[names[i] for i in picked]}")
+    roles = (("distance", "x", picked[0]), ("distance", "y", picked[1]), ("height", "z", picked[2]))
+    missing = [(what, names[i]) for what, _, i in roles
+               if options.get(f"{what}_unit") is None and split_column_name(names[i])[1] is None]
+    if missing:
+        kinds = sorted({what for what, _ in missing})
+        columns = " and ".join(f"the {kind} column{'s' if len(cs) > 1 else ''} {', '.join(map(repr, cs))}"
+                               for kind in kinds for cs in [[c for w, c in missing if w == kind]])
+        raise ProfileFormatError(
+            f"{name}: no unit for {columns} (the file states none): give {' and '.join(k + '_unit' for k in kinds)} "
+            f"('m', 'mm', 'um', ...) as a read_surface option, a manifest column or roadtex process "
+            f"{', '.join('--' + k + '-unit' for k in kinds)}")
 
     def column(index: int) -> np.ndarray:
         series = frame.get_column(names[index])
         if not series.dtype.is_numeric():
-            raise ProfileFormatError(f"{name}: column {names[index]!r} is {series.dtype}, not numeric")
+            bad = series.cast(pl.Float64, strict=False).is_null() & series.is_not_null()
+            first_bad = series.filter(bad).head(1).to_list()
+            raise ProfileFormatError(f"{name}: column {names[index]!r} is {series.dtype}, not numeric"
+                                     + (f" (it holds {first_bad[0]!r})" if first_bad else ""))
         return series.cast(pl.Float64).fill_null(float("nan")).to_numpy()
 
-    x = column(picked[0]) * column_unit(names, picked[0], options.get("distance_unit"), "distance")
-    y = column(picked[1]) * column_unit(names, picked[1], options.get("distance_unit"), "distance")
-    z = column(picked[2]) * column_unit(names, picked[2], options.get("height_unit"), "height")
+    x, y, z = (column(i) * column_unit(names, i, options.get(f"{what}_unit"), what) for what, _, i in roles)
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ProfileFormatError(f"{name}: x and y must be finite on every row (drop-outs are missing z)")
     ix, dx, x0 = grid_index(x, options.get("dx"), "x", name)

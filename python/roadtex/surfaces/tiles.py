@@ -140,8 +140,14 @@ def cut_tiles(surface: Surface, length: float, width: float, overlap: float | tu
         raise InvalidInputError(f"a tile of {length_f:.3g} m x {width_f:.3g} m is less than 2 columns or 1 row "
                                 f"at dx {surface.dx:.3g} m, dy {surface.dy:.3g} m")
     if columns > columns_total or rows > rows_total:
-        raise InvalidInputError(f"a tile of {length_f:.6g} m x {width_f:.6g} m exceeds the surface "
-                                f"({surface.length:.6g} m x {surface.width:.6g} m)")
+        hint = ""
+        if surface.width > surface.length:
+            hint = (f"; the surface is wider across the road ({rows_total} rows) than long along it ({columns_total} "
+                    "columns): is it transposed? heights[iy, ix] has rows across the road and columns along it")
+        elif columns > columns_total:
+            hint = "; use shorter tiles (the bulk job's --segment-length)"
+        raise InvalidInputError(f"a tile of {length_f:.6g} m along the road x {width_f:.6g} m across exceeds the "
+                                f"surface ({surface.length:.6g} m along x {surface.width:.6g} m across){hint}")
     ox_points, oy_points = int(round(ox / surface.dx)), int(round(oy / surface.dy))
     if not (0 <= ox_points < columns and 0 <= oy_points < rows):
         raise InvalidInputError(f"overlap must be in [0, tile size) in each direction, got {overlap!r} m "

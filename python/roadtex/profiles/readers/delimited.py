@@ -25,6 +25,9 @@ from roadtex.profiles.units import UNITS
 
 #: The comment line tag under which :func:`roadtex.write_profile` stores metadata and history.
 ROADTEX_TAG = "roadtex-profile"
+#: More columns than this without a header (and no height column given) is a grid of heights,
+#: not a profile: its first two columns are not a distance and a height.
+MAX_HEADERLESS_COLUMNS = 8
 
 
 def sniff_separator(lines: list[bytes]) -> str:
@@ -198,6 +201,12 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
             raise ProfileFormatError(f"{name}: a header line ({separator.join(names)!r}) but no data rows")
     else:
         names = [f"column_{i + 1}" for i in range(len(first))]
+        if len(names) > MAX_HEADERLESS_COLUMNS and options.get("height_column") is None:
+            raise ProfileFormatError(
+                f"{name}: {len(names)} columns of numbers and no header: a grid of heights (a 3-D surface, one line "
+                "per row across the road), not a profile? A profile file has a distance and a height column (name "
+                "them with distance_column, height_column); read a surface as a 2-D .npy (numpy.save the grid, give "
+                "dx and dy) with format 'surface'")
     n_columns = len(names)
     first_data_line = skip + (2 if has_header else 1)
     if not data.endswith(b"\n"):

@@ -85,8 +85,15 @@ def split_column_name(column: str) -> tuple[str, str | None]:
     return base, unit
 
 
+def column_list(names: list[str], most: int = 12) -> str:
+    """The column names for a message: all of them, or the first few and how many there are."""
+    if len(names) <= most:
+        return str(names)
+    return f"{names[:most - 2]} ... ({len(names)} columns)"
+
+
 def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str, ...], what: str,
-                 required: bool) -> int | None:
+                 required: bool, *, where: str = "a read_profile option or manifest column") -> int | None:
     if isinstance(wanted, (int, np.integer)) and not isinstance(wanted, bool):
         if not -len(names) <= int(wanted) < len(names):
             raise ProfileFormatError(f"{what} column index {wanted} is out of range for {len(names)} columns")
@@ -95,7 +102,7 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
         for i, name in enumerate(names):
             if name == wanted or name.strip().lower() == wanted.strip().lower() or split_column_name(name)[0] == wanted.lower():
                 return i
-        raise ProfileFormatError(f"unknown {what} column {wanted!r}; the columns are {names}")
+        raise ProfileFormatError(f"unknown {what} column {wanted!r}; the columns are {column_list(names)}")
     if wanted is not None:
         raise ProfileFormatError(f"{what}_column must be a column name or index, got {wanted!r}")
     bases = [split_column_name(n)[0] for n in names]
@@ -104,8 +111,8 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
             return bases.index(synonym)
     if required:
         hint = ", or give dx (m) for evenly spaced heights" if what == "distance" else ""
-        raise ProfileFormatError(f"no {what} column among {names}; name it with {what}_column (a read_profile "
-                                 f"option or manifest column){hint}")
+        raise ProfileFormatError(f"no {what} column among {column_list(names)}; name it with {what}_column ({where})"
+                                 f"{hint}")
     return None
 
 
@@ -169,7 +176,8 @@ def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tup
             if conflict.any():
                 i = int(same[np.flatnonzero(conflict)[0]])
                 raise ProfileFormatError(f"{name}: {same.size} duplicate positions, e.g. {positions[i]:.9g} m with heights "
-                                 f"{heights[i]:.9g} and {heights[i + 1]:.9g} m that disagree: cannot sort them out")
+                                 f"{heights[i]:.9g} and {heights[i + 1]:.9g} m that disagree: cannot sort them out "
+                                 "(a 3-D surface of x, y, z readings? give its manifest row the format 'surface')")
             keep = np.ones(positions.size, dtype=bool)
             keep[same + 1] = False
             # a duplicate pair keeps the valid height of the two
