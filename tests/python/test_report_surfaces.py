@@ -93,3 +93,16 @@ def test_report_states_the_surface_levels_numerical_error(mixed_results: Path, t
         np.testing.assert_array_equal(joined["level_error_db"].to_numpy(), joined[f"{model} model error (dB)"].to_numpy())
     text = build_report(mixed_results, out_dir=tmp_path / "report").html.read_text(encoding="utf-8")
     assert 'class="surface-errors"' in text and "not resolved by the data's sampling" in text
+
+
+def test_a_job_of_surface_runs_only_has_a_report(tmp_path: Path) -> None:
+    """No line run, so no example segment for the profile figures: the report leaves those out
+    and draws the rest (it used to fail on the missing example)."""
+    manifest = write_synthetic_archive(tmp_path / "archive", kinds=("dense_asphalt",), runs_per_kind=0,
+                                       run_length=0.6, surfaces_per_kind=1, surface_size=(0.4, 0.03))
+    summary = process(manifest, tmp_path / "results", OPTIONS, quiet=True)
+    assert summary.failed == 0 and summary.surface_runs == summary.runs == 1
+    assert "1 surface run(s) at their own spacings" in str(summary) and " m of road" in str(summary)
+    report = build_report(tmp_path / "results", out_dir=tmp_path / "report")
+    assert {"surface_tiles", "line_vs_areal", "texture_spectra"} <= set(report.figures)
+    assert not {"envelopes", "pressures", "valley_penetration", "von_meier"} & set(report.figures)

@@ -183,3 +183,13 @@ def test_an_opencrg_surface_goes_through_the_job_from_the_folder_listing(tmp_pat
     assert summary.failed_on_record == 0, pl.read_parquet(tmp_path / "out" / "errors.parquet")
     models = set(pl.read_parquet(tmp_path / "out" / "segments.parquet")["model"])
     assert models == {"line", "areal"}
+
+
+def test_a_strip_too_narrow_for_the_areal_model_fails_at_read_naming_the_file(tmp_path):
+    narrow = tmp_path / "narrow.npy"
+    np.save(narrow, synthetic_surface("dense_asphalt", 0.4, 0.003, 1e-3, seed=2).heights[:3])   # 3 rows
+    manifest = pl.DataFrame({"path": [str(narrow)], "format": ["surface"], "dx": [1e-3], "dy": [1e-3]})
+    assert process(manifest, tmp_path / "out", OPTIONS, quiet=True).failed == 1
+    error = pl.read_parquet(tmp_path / "out" / "errors.parquet").row(0, named=True)
+    assert error["stage"] == "read" and error["message"].startswith("narrow.npy: 3 row(s) across the road")
+    assert "at least 4" in error["message"]

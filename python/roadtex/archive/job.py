@@ -75,14 +75,20 @@ class ProcessSummary:
     #: runs whose latest attempt failed, this call or an earlier one (errors.parquet lists them)
     failed_on_record: int = 0
     dx: float | None = None
+    #: surface runs among ``runs`` (solved at their own spacings, not at ``dx``)
+    surface_runs: int = 0
 
     def __str__(self) -> str:
         earlier = self.failed_on_record - self.failed
         record = (f" ({earlier} more failed in an earlier call and were not retried: see errors.parquet, "
                   "or process again with --retry-failed)") if earlier > 0 else ""
-        grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None else ""
+        line_runs = self.runs - self.surface_runs
+        grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None and line_runs else ""
+        if self.surface_runs:
+            grid += (f"{',' if grid else ''} {self.surface_runs} surface run(s) at their own spacings")
+        length = f"{self.kilometres:.3f} km" if self.kilometres >= 1.0 else f"{self.kilometres * 1e3:.4g} m"
         return (f"{self.runs} runs: {self.processed} processed, {self.skipped} already done, "
-                f"{self.failed} failed{record}; {self.kilometres:.3f} km of profile{grid} in {self.seconds:.1f} s "
+                f"{self.failed} failed{record}; {length} of road{grid} in {self.seconds:.1f} s "
                 f"-> {self.out_dir}")
 
 
@@ -210,7 +216,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         skipped=sum(1 for s in statuses.values() if s["skipped"]),
         kilometres=sum(float(s.get("kilometres", 0.0)) for s in statuses.values() if not s["skipped"]),
         seconds=time.perf_counter() - started, tables=tables,
-        failed_on_record=sum(1 for s in statuses.values() if s["state"] == "error"), dx=plan.dx)
+        failed_on_record=sum(1 for s in statuses.values() if s["state"] == "error"), dx=plan.dx,
+        surface_runs=sum(1 for run in runs if is_surface_run(run)))
 
 
 def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions, *,

@@ -59,6 +59,8 @@ from roadtex.surfaces.tiles import plane_fits
 
 #: Lines (rows evenly spread across the surface) solved with the line model and analysed.
 SURFACE_LINES = 5
+#: Fewest rows across the road the areal model takes (its solver's least, 4 points each way).
+MIN_SURFACE_ROWS = 4
 #: ``format`` values of the manifest that make a run a surface run (besides a ``.crg`` file).
 SURFACE_FORMATS = ("surface", "crg")
 #: Reader options of a surface run taken from its manifest row (m for dx, dy).
@@ -129,8 +131,13 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
     if reason is not None:
         raise RunFailure("read", InvalidInputError(
-            f"{reason} Give the file's units (manifest columns distance_unit, height_unit)."))
+            f"{reason} Give the file's units (manifest columns distance_unit, height_unit), or correct "
+            "the unit in the file's header where it states one."))
     surface, cleaning = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
+    if surface.shape[0] < MIN_SURFACE_ROWS:  # refused before any solve, naming the file
+        raise RunFailure("read", InvalidInputError(
+            f"{name}: {surface.shape[0]} row(s) across the road ({surface.width * 1e3:.3g} mm wide): the areal "
+            f"model needs at least {MIN_SURFACE_ROWS}; a single line is a profile (format omitted)"))
     tiles = run_stage("segment", lambda: surface.tiles(options.segment_length, surface.width,
                                                        (options.segment_overlap, 0.0)))
     rows = line_rows(surface.shape[0])

@@ -122,18 +122,19 @@ def draw_figures(results: Results, benchmark: dict[str, Any] | None = None) -> t
     empty = pl.DataFrame()
     von_meier = results.von_meier if results.von_meier is not None else empty
     penetration = results.penetration if results.penetration is not None else empty
+    # the profile figures draw the line runs' example segments: a job of surface runs only has none
     figures: dict[str, Any] = {
-        "von_meier": fig_von_meier(plt, examples, von_meier),
+        "von_meier": fig_von_meier(plt, examples, von_meier) if examples else None,
         "edge_effect": fig_edge_effect(plt, results.edge_effect),
-        "envelopes": fig_envelopes(plt, examples),
-        "pressures": fig_pressures(plt, examples),
-        "valley_penetration": fig_valley_penetration(plt, examples, results.moduli, penetration),
+        "envelopes": fig_envelopes(plt, examples) if examples else None,
+        "pressures": fig_pressures(plt, examples) if examples else None,
+        "valley_penetration": (fig_valley_penetration(plt, examples, results.moduli, penetration)
+                               if examples else None),
         "texture_spectra": fig_texture_spectra(plt, results),
         "pressure_spectra": fig_pressure_spectra(plt, results),
     }
-    if figures["von_meier"] is None:
-        del figures["von_meier"]
     figures["pressure_vs_texture"], regressions = fig_pressure_vs_texture(plt, results)
+    figures = {name: fig for name, fig in figures.items() if fig is not None}
     figures["setting_speed_vs_error"] = fig_setting_speed_vs_error(plt, results)
     if benchmark is not None:
         fig = fig_speed_vs_error(plt, benchmark)

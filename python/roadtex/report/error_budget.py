@@ -198,13 +198,15 @@ def budget_summary(results: Results) -> str:
     shortest, longest = noise_wavelength_range()
     (f_low, f_high), (v_low, v_high) = NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH
     within = plan.get("within_budget")
+    surfaces = ("; surface runs at their own spacings and the tolerance their own pilot chose (runs.parquet "
+                "dx_used, tol_used)" if results.surface_bands is not None else "")
     text = [
         f"Error budget {plain(plan['budget_db'])} dB on every level (texture, enveloped texture, contact pressure) "
         f"in the tyre/road noise bands (those marked “in budget” below: reported, and overlapping {plain(f_low)} Hz to "
         f"{plain(f_high / 1e3)} kHz at {plain(v_low)} to {plain(v_high)} km/h, wavelengths {plain(shortest * MM)} "
         f"to {plain(longest * MM)} mm). "
-        f"Every run was solved at dx = {plain(plan['dx'] * MM)} mm and tol = {tolerance(plan['tol'])} "
-        f"({html.escape(str(plan.get('source', '')))}). "
+        f"Every line run was solved at dx = {plain(plan['dx'] * MM)} mm and tol = {tolerance(plan['tol'])} "
+        f"({html.escape(str(plan.get('source', '')))}){surfaces}. "
         f"Within budget: {'yes' if within else 'no'}; worst estimated error in the budget bands "
         f"{plain(plan.get('worst_error_db') or float('nan'))} dB."]
     if plan.get("speedup") is not None:

@@ -113,6 +113,8 @@ def fig_pressure_vs_texture(plt, results: Results):
     octaves = octave_table(results).filter(pl.col("enveloped_level").is_finite() & pl.col("pressure_level").is_finite())
     fits = band_regressions(octaves, x="enveloped_level", y="pressure_level", by=("band", "youngs_modulus"))
     band_list = octaves["band"].unique().sort().to_list()
+    if not band_list:  # no octave band with all three third octaves (e.g. surfaces too short)
+        return None, fits
     columns = min(4, len(band_list))
     rows = int(np.ceil(len(band_list) / columns))
     fig, axes = plt.subplots(rows, columns, figsize=(3.0 * columns + 1.8, 2.7 * rows + 0.4), squeeze=False,
