@@ -1,5 +1,6 @@
 """Issue 17's target: a 1 m x 0.2 m surface at 0.5 mm (800,000 points), four E, areal and line
-models, end to end through the bulk job (read, condition, tiles, solves, spectra, Parquet).
+models, end to end through the bulk job (read, condition, tiles, solves, spectra, Parquet), with
+the error budget off and on (the areal pilot, roadtex.budget.areal) in the same run.
 
     .venv/bin/python benches/surface_job_bench.py [--repeats 3]
 
@@ -33,14 +34,26 @@ def main() -> int:
         manifest = pl.DataFrame({"path": [str(folder / "surface.npy")], "format": ["surface"],
                                  "dx": [0.5e-3], "dy": [0.5e-3]})
         print(f"# {surface.heights.size:,} points, E = 1, 2, 5, 10 MPa, load average {os.getloadavg()[0]:.1f}")
+        print("# each repeat: --error-budget off, then the default budget (the areal pilot), same run")
         for repeat in range(args.repeats):
-            started = time.perf_counter()
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", roadtex.errors.RoadtexWarning)
-                roadtex.process(manifest, folder / "out", quiet=True, force=True)
-            models = pl.read_parquet(folder / "out" / "segments.parquet")["model"].value_counts().sort("model")
-            print(f"repeat {repeat + 1}: {time.perf_counter() - started:.1f} s end to end; segment rows "
-                  + ", ".join(f"{m}: {c}" for m, c in models.iter_rows()))
+            seconds = {}
+            for budget in (None, roadtex.ProcessingOptions().error_budget_db):
+                started = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", roadtex.errors.RoadtexWarning)
+                    roadtex.process(manifest, folder / "out", roadtex.ProcessingOptions(error_budget_db=budget),
+                                    quiet=True, force=True)
+                label = "off" if budget is None else f"{budget:g} dB"
+                seconds[label] = time.perf_counter() - started
+                run = pl.read_parquet(folder / "out" / "runs.parquet").row(0, named=True)
+                segments = pl.read_parquet(folder / "out" / "segments.parquet")
+                models = segments["model"].value_counts().sort("model")
+                print(f"repeat {repeat + 1}, budget {label}: {seconds[label]:.1f} s end to end; tol {run['tol_used']:g}, "
+                      f"worst estimated error {run['worst_level_error_db']} dB, median iterations "
+                      f"{segments['iterations'].median():g}; segment rows "
+                      + ", ".join(f"{m}: {c}" for m, c in models.iter_rows()))
+            off, on = seconds["off"], [v for k, v in seconds.items() if k != "off"][0]
+            print(f"repeat {repeat + 1}: budget / off = {on / off:.2f}")
     return 0
 
 

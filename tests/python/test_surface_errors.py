@@ -3,6 +3,7 @@ actually made, measured against a much finer solve of the same surface; bounded 
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,8 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
-from roadtex.archive.surface_run import line_rows
+from roadtex.archive.job import surface_estimates, with_plan
+from roadtex.archive.surface_run import error_table, line_rows
 from roadtex.budget import areal
 from roadtex.errors import ErrorBudgetWarning
 from roadtex.models.contact import contact_many
@@ -145,8 +147,10 @@ def test_a_surface_too_large_for_the_pilot_is_warned_about_and_left_unestimated(
     manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
     monkeypatch.setattr(areal, "AREAL_PILOT_POINTS", 100)
     options = ProcessingOptions(segment_length=0.1, youngs_moduli=(2e6,), tol=1e-6)
-    with pytest.warns(ErrorBudgetWarning, match="run 's': tiles of 10 x 100 points are too large for the areal error pilot"):
+    with pytest.warns(ErrorBudgetWarning, match=r"s.npy \(run 's'\): tiles of 10 x 100 points: even one window"):
         assert process(manifest, tmp_path / "out", options, quiet=True).failed == 0
+    notes = json.loads((tmp_path / "out" / "parameters.json").read_text())["surface_pilot_notes"]
+    assert list(notes) == ["s"] and "tiles of 10 x 100 points" in notes["s"]
     runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
     assert runs["worst_level_error_db"][0] is None and runs["within_budget"][0] is None
     assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].null_count() > 0
@@ -196,3 +200,47 @@ def test_a_surface_runs_tolerance_is_chosen_by_its_pilot_unless_given(tmp_path: 
         assert (segments["residual"] <= chosen[name]).all()     # every solve met the tol the run states
     assert chosen["given"] == 1e-8
     assert chosen["free"] == pilot_at((1e-4, 1e-6, 1e-8, 1e-10), 0.2).tol
+
+
+def test_a_loose_tolerance_is_estimated_too() -> None:
+    """At tol 1e-2 the levels move measurably from tol 1e-10 at the same spacing; the estimate at
+    1e-2 is larger than at 1e-10 and still covers the error against a much finer, tighter solve."""
+    surface = synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.array([0, 5, 10, 15])
+    lines = remove_lines(tile[rows])[0]
+    shift = tile[rows] - lines
+    loose, exact = pilot_at((1e-2,), 0.2), pilot_at((1e-10,), 0.2)
+    bands = loose.bands
+    at_loose = {"line": line_levels(lines, 1, 1e-2, bands), "areal": areal_levels(tile, rows, shift, 1, 1e-2, bands)}
+    moved = {"line": gap(at_loose["line"], line_levels(lines, 1, 1e-10, bands)),
+             "areal": gap(at_loose["areal"], areal_levels(tile, rows, shift, 1, 1e-10, bands))}
+    finest = {"line": line_levels(lines, 16, 1e-10, bands), "areal": areal_levels(tile, rows, shift, 8, 1e-10, bands)}
+    for model in areal.MODELS:
+        assert moved[model].max() > 0.03, model        # the tolerance matters here
+        assert np.all(loose.level_error_db[model] >= exact.level_error_db[model]), model
+        actual = gap(at_loose[model], finest[model]).max(axis=(0, 1))
+        assert np.all(loose.level_error_db[model] >= actual - 0.02), model
+
+
+def test_each_models_estimates_reach_its_own_rows_and_only_budget_bands_count(tmp_path: Path) -> None:
+    """The plumbing from the pilot to the tables: distinct numbers per model and band land on that
+    model's band rows; the run's worst error is over the budget bands only."""
+    errors = areal.SurfaceErrors(bands=np.array([20, 21, 30]), in_budget=np.array([True, True, False]),
+                                 level_error_db={"line": np.array([1.0, 2.0, 50.0]),
+                                                 "areal": np.array([10.0, 20.0, 500.0])},
+                                 work_speedup=1.5, pilot_tiles=(0,), tol=1e-4)
+    table = error_table("s", errors)
+    path = tmp_path / "level_errors.parquet"
+    table.write_parquet(path)
+    own = surface_estimates([path], budget_db=15.0)
+    rows = pl.DataFrame({"run_id": ["s"] * 6, "model": ["line"] * 3 + ["areal"] * 3, "band": [20, 21, 30] * 2,
+                         "level_error_db": [None] * 6}, schema_overrides={"level_error_db": pl.Float64})
+    empty = (pl.DataFrame(schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64}),
+             pl.DataFrame(schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean}))
+    bands = with_plan(rows.lazy(), "bands", None, empty, ["s"], own).collect()
+    assert bands["level_error_db"].to_list() == [1.0, 2.0, 50.0, 10.0, 20.0, 500.0]
+    run = pl.DataFrame({"run_id": ["s"]})
+    runs = with_plan(run.lazy(), "runs", None, empty, ["s"], own).collect().row(0, named=True)
+    assert runs["worst_level_error_db"] == 20.0 and runs["within_budget"] is False   # not 500: band 30 is out
+    assert runs["speedup"] == 1.5 and runs["time_saved_fraction"] == pytest.approx(1 / 3)

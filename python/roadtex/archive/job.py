@@ -136,11 +136,13 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
                       message=str(failure.cause), kilometres=0.0)
     else:
         for name, table in tables.items():
-            if table is None:
+            if not isinstance(table, pl.DataFrame):   # None, or a note for the status
                 continue
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
+        if tables.get("pilot_note") is not None:   # a surface run whose areal pilot could not run
+            status["pilot_note"] = tables["pilot_note"]
     for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", "level_errors",
                   *COMPARISON_TABLES):
         if status["state"] != "ok" or tables.get(stale) is None:  # failed, or not made this time
@@ -238,6 +240,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
                                     **{name: [] for name in COMPARISON_TABLES}}
     errors: list[dict[str, Any]] = []
     surface_error_files: list[Path] = []
+    pilot_notes: dict[str, str] = {}
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
         status = read_status(run_dir)
@@ -262,6 +265,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
             parts["surface_examples"].append(run_dir / "surface_example.parquet")
         if (run_dir / "level_errors.parquet").exists():
             surface_error_files.append(run_dir / "level_errors.parquet")
+        if status.get("pilot_note"):
+            pilot_notes[run["run_id"]] = status["pilot_note"]
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
                "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
@@ -298,6 +303,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
         "requested_options": dataclasses.asdict(requested or options),
         "plan": plan.summary() if plan is not None else None,
+        # surface runs whose areal pilot could not run (their levels have no error estimate), and why
+        "surface_pilot_notes": pilot_notes,
         "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
         "versions": software_versions(), "runs": manifest.height,
     })
@@ -342,7 +349,7 @@ def surface_estimates(files: list[Path], budget_db: float | None) -> tuple[pl.Da
     table = pl.read_parquet(files, schema=SURFACE_ERROR_SCHEMA)
     bands = table.select("run_id", "model", "band", pl.col("level_error_db").alias("surface_error_db"))
     runs = table.group_by("run_id", maintain_order=True).agg(
-        pl.col("level_error_db").filter(pl.col("in_budget")).max().fill_null(0.0).alias("surface_worst_db"),
+        pl.col("level_error_db").filter(pl.col("in_budget")).max().alias("surface_worst_db"),   # null: no budget band
         pl.col("speedup").first().alias("surface_speedup"))
     runs = runs.with_columns((pl.col("surface_worst_db") <= budget_db).alias("surface_within"))
     return bands.cast(bands_schema), runs.select(list(runs_schema)).cast(runs_schema)  # type: ignore[arg-type]

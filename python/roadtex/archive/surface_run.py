@@ -38,7 +38,13 @@ from roadtex.archive.schemas import (
     SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
 )
-from roadtex.budget.areal import SurfaceErrors, pilot_tile_indices, pilot_window, surface_level_errors
+from roadtex.budget.areal import (
+    AREAL_PILOT_POINTS,
+    SurfaceErrors,
+    pilot_tile_indices,
+    pilot_window,
+    surface_level_errors,
+)
 from roadtex.budget.noise import in_budget
 from roadtex.budget.study import DEFAULT_TOLERANCES
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
@@ -114,8 +120,9 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         The run's tables (``segments``, ``bands``, ``run``; ``example`` is None), as line runs
         give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface;
         ``surface_example``: the middle tile solved at the middle modulus (for the report); and
-        ``level_errors`` (SURFACE_ERROR_SCHEMA; None without an error budget, or when one tile is
-        too large for the areal pilot): the error estimate of each model's levels per band.
+        ``level_errors`` (SURFACE_ERROR_SCHEMA; None without an error budget, or when the areal
+        pilot could not run): the error estimate of each model's levels per band; and
+        ``pilot_note`` (a string, not a table): why the pilot could not run, else None.
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
@@ -161,8 +168,19 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
                  if speed is not None else np.full(bands.height, np.nan))
     line_mpd = np.stack([segment_mpd(d.segments, starts, tiles.length, max(dx, 5e-4)) for d in depths], axis=1)
-    errors = (run_stage("solve", lambda: pilot_errors(run, options, tiles, lines, rows, moduli, bands, threads))
-              if options.error_budget_db is not None else None)
+    errors, pilot_note = None, None
+    if options.error_budget_db is not None:
+        try:
+            errors = run_stage("pilot", lambda: pilot_errors(tiles, lines, rows, moduli, bands, options, threads))
+        except RunFailure as failure:  # as a line group's pilot: recorded and warned, the run goes on
+            pilot_note = f"the areal pilot failed: {type(failure.cause).__name__}: {failure.cause}"
+        if errors is None and pilot_note is None:
+            n_y, n_x = tiles.heights.shape[1:]
+            pilot_note = (f"tiles of {n_y} x {n_x} points: even one window of the areal pilot exceeds its "
+                          f"{AREAL_PILOT_POINTS} points at half spacing")
+        if pilot_note is not None:
+            warnings.warn(f"{name} (run {run['run_id']!r}): {pilot_note}; its levels have no error estimate "
+                          "(level_error_db null; parameters.json surface_pilot_notes)", ErrorBudgetWarning, stacklevel=2)
     tol = options.tol if errors is None else errors.tol   # the pilot's choice (the given tol when forced)
     # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
     # envelopes and pressures, for every modulus, are what grows with the run's length).
@@ -186,6 +204,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         "example": None,
         "surface_example": example,
         "level_errors": None if errors is None else error_table(run["run_id"], errors),
+        "pilot_note": pilot_note,
         "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
@@ -259,9 +278,11 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
     line_mpd = line_mpd[part]
     segment_frames = []
     line_measures = contact_measures(line_heights[:, :, None, :], line_p, line_env)
-    with warnings.catch_warnings():  # a tile without any valid MPD baseline: NaN (null), no warning
-        warnings.simplefilter("ignore", RuntimeWarning)
-        areal_mpd = np.nanmean(line_mpd, axis=1) if np.isfinite(line_mpd).any() else np.full(n_tiles, np.nan)
+    # the mean of the tile's lines' MPD; NaN (null) for a tile without any valid baseline (counted
+    # by hand: numpy's nanmean warns, and a warnings filter would be process-wide)
+    valid = np.isfinite(line_mpd)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        areal_mpd = np.where(valid, line_mpd, 0.0).sum(axis=1) / valid.sum(axis=1)
     areal_measures = contact_measures(heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
                                       areal.envelope.reshape(n_tiles, moduli.size, -1))
     line_iter = line_batch.iterations.reshape(n_tiles, len(rows), moduli.size)
@@ -302,30 +323,30 @@ def tile_lines(tiles: Any, part: np.ndarray, lines: list[Any],
     return heights, line_heights, heights[:, rows, :] - line_heights
 
 
-def pilot_errors(run: dict[str, Any], options: ProcessingOptions, tiles: Any, lines: list[Any], rows: np.ndarray,
-                 moduli: np.ndarray, bands: pl.DataFrame, threads: int | None) -> SurfaceErrors | None:
-    """The areal pilot's error estimates of the run's levels (:mod:`roadtex.budget.areal`), or
-    None (warned) when one tile is too large for it."""
+def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame,
+                 options: ProcessingOptions, threads: int | None) -> SurfaceErrors | None:
+    """The areal pilot's choice of tolerance and error estimates of the run's levels
+    (:mod:`roadtex.budget.areal`), or None when one window is too large for it."""
     n_tiles, n_y, n_x = tiles.heights.shape
-    window, inside = pilot_window(n_y, n_x, rows)
+    window, _ = pilot_window(n_y, n_x, rows)
     chosen = pilot_tile_indices(n_tiles, (window.stop - window.start) * n_x)
     if chosen.size == 0:
-        warnings.warn(f"run {run['run_id']!r}: tiles of {n_y} x {n_x} points are too large for the areal error "
-                      "pilot; its levels have no error estimate (level_error_db null)", ErrorBudgetWarning, stacklevel=2)
         return None
-    # the line model on every analysed row (cheap), the areal model on the window
+    # the line model on every analysed row (cheap); the areal model on the window, its levels taken
+    # along every row of it (each moved by its own line, as the job moves the analysed rows): more
+    # samples of how a row's levels err than the one or two analysed rows a strip holds
     heights, line_heights, _ = tile_lines(tiles, chosen, lines, rows)
     heights = heights[:, window, :]
     if window.stop - window.start < n_y:  # a strip of each tile, its own plane removed as tiles' are
         heights = heights - plane_fits(heights, tiles.dx, tiles.dy)
-    local = rows[inside] - window.start
+    every_row = np.arange(heights.shape[1])
     reported = bands.filter(pl.col("reported"))["band"].to_numpy()
     return surface_level_errors(
-        heights, line_heights, heights[:, local, :] - line_heights[:, inside], local, tiles.dx, tiles.dy, bands=reported,
+        heights, line_heights, heights - remove_lines(heights)[0], every_row, tiles.dx, tiles.dy, bands=reported,
         in_budget=in_budget(reported, tiles.dx, tiles.length, options.band_kind),
         run_rows=n_tiles * rows.size * moduli.size, youngs_moduli=moduli, mean_pressure=options.mean_pressure,
         poisson=options.poisson, budget_db=float(options.error_budget_db or 0.0),
-        tols=DEFAULT_TOLERANCES if options.tol_from_budget else (float(options.tol or 0.0),),
+        tols=DEFAULT_TOLERANCES if options.tol_from_budget else (float(options.tol),),
         band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
         pilot_tiles=tuple(int(t) for t in chosen))

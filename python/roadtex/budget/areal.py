@@ -24,9 +24,9 @@ is chosen as loose as the budget allows, from a few *pilot* tiles spread evenly 
 The pilot is bounded. On a wide tile it solves a *window*: a strip of the tile along its whole
 length (the same bands) and :data:`AREAL_WINDOW_POINTS` points across, centred on the analysed row
 nearest the middle, its own plane removed, solved as a periodic cell as tiles are; the areal
-estimate comes from the analysed rows inside it (the line model's, cheap, from every analysed
-row). The discretisation error of a row's levels depends on how finely the grid resolves the
-contact spots along it, which the strip shows as the tile does (tested against the whole tile).
+estimate comes from every row of it (the line model's, cheap, from every analysed row). The
+discretisation error of a row's levels depends on how finely the grid resolves the contact spots
+along it, which the strip's rows show as the tile's do (tested against the whole tile).
 At most :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot tiles (fewer tiles when
 windows are large); a run whose window is too large for even one is not estimated (None).
 """
@@ -57,21 +57,23 @@ AREAL_WINDOW_POINTS = 2 ** 15
 MIN_WINDOW_ROWS = 8
 
 #: Largest number of points at half spacing over all pilot windows (4 per point of a window): the
-#: pilot's cost, about that many points solved per modulus at tol 1e-10. 2^19: three windows of
-#: 2^15 points.
+#: pilot's cost, about that many points solved per modulus at tol 1e-10. 2^19: four windows of
+#: 2^15 points would fit, of which :data:`AREAL_PILOT_TILES` are used.
 AREAL_PILOT_POINTS = 2 ** 19
 
 MODELS = ("line", "areal")
 
 #: Richardson factor of the reference's own error: error(h) ~ factor x |L(h / 2) - L(h)| (2 would
-#: be first order, as for line runs). The levels of surface runs converge more slowly: rows of an
-#: areal pressure map cross contact spots that every halving resolves better. On 48 cases (3
-#: synthetic pavements x 8 seeds x 2 widths, 1 mm, 0.128 m tiles, E = 2 and 10 MPa, tol 1e-6) the
-#: areal pressure levels of some bands fell only 1.3 times per halving (order 0.4); against solves
-#: 8 (areal) and 16 (line) times finer, factor 2 fell short by up to 0.2 dB (areal) and 0.06 dB
-#: (line); factor 3 (order 0.6) covered every band of both models, by at least 1.3 times (median
-#: 3 times; README "Error budget"). One factor for both models: on a surface that is a profile
-#: extruded across the road, where both models give the same levels, they get the same estimate.
+#: be first order, as for line runs). An empirical choice: the levels of surface runs converge more
+#: slowly (rows of an areal pressure map cross contact spots that every halving resolves better).
+#: On 48 cases (3 synthetic pavements x 8 seeds x 2 widths, 1 mm, 0.128 m tiles, E = 2 and 10 MPa,
+#: tol 1e-6) the areal pressure levels of some bands fell only 1.3 times per halving (order 0.4,
+#: whose own factor would be 4.1); against solves 8 (areal) and 16 (line) times finer, factor 2 fell
+#: short by up to 0.2 dB (areal) and 0.06 dB (line), factor 3 covered every band of both models by
+#: at least 1.3 times (median 3 times): pooling over neighbouring bands and the larger of the
+#: enveloped and pressure estimates add the rest (``benches/areal_budget.py`` reruns the check).
+#: One factor for both models: on a surface that is a profile extruded across the road, where both
+#: models give the same levels, they get the same estimate.
 RICHARDSON_FACTOR = 3.0
 
 
@@ -205,9 +207,10 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
             nx; m, plane removed).
         lines: the line model's stretches of every analysed row of the pilot tiles (tiles, lines,
             nx; m, each its line removed).
-        shift: the move of the areal envelope's analysed rows inside ``heights`` into the line
-            model's frame (tiles, rows, nx; m): those rows of ``heights`` minus their ``lines``.
-        rows: the analysed rows inside ``heights`` (indices in it, across the road).
+        shift: the move of those rows of the areal envelope into the line model's frame (tiles,
+            rows, nx; m): each row's least-squares line.
+        rows: the rows of ``heights`` whose areal levels are compared (indices in it, across the
+            road; the job uses every row of the window).
         dx, dy: the run's spacings along and across the road (m).
         bands: band numbers to estimate (those the job reports); in_budget: which are budget bands.
         run_rows: rows (tiles x lines x moduli) of each model in the whole run.
@@ -215,7 +218,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         budget_db: the error budget (dB).
         youngs_moduli, mean_pressure, poisson, band_kind, band_method, max_iterations, threads: as
             the job solves and analyses the run (Pa, Pa, 1).
-        pilot_tiles: the tiles' indices along the run (recorded).
+        pilot_tiles: the tiles' indices along the run (their count goes to the run's table).
 
     Returns:
         A :class:`SurfaceErrors` at the chosen tolerance.

@@ -228,10 +228,15 @@ def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
     """
     padded = np.concatenate([differences[..., :1], differences, differences[..., -1:]], axis=-1)
     pooled = np.concatenate([padded[..., :-2], padded[..., 1:-1], padded[..., 2:]], axis=0)
-    with warnings.catch_warnings():  # NaN marks bands not reported at a candidate: skipped
-        warnings.simplefilter("ignore", RuntimeWarning)
-        rms = np.sqrt(np.nanmean(pooled ** 2, axis=0))
-        return np.fmax(np.nanmax(pooled, axis=0), rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
+    # NaN marks bands not reported at a candidate: skipped (counted out by hand: numpy's
+    # nan-functions warn on NaN-only slices, and a warnings filter is process-wide, which the job's
+    # run threads must not touch)
+    valid = ~np.isnan(pooled)
+    count = valid.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt((np.where(valid, pooled, 0.0) ** 2).sum(axis=0) / count)   # NaN where count is 0
+    largest = np.where(count > 0, np.where(valid, pooled, -np.inf).max(axis=0), np.nan)
+    return np.fmax(largest, rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
 
 
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:

@@ -55,8 +55,14 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
         return None
-    with np.errstate(all="ignore"), warnings.catch_warnings():  # an all-NaN row: NaN measures, not a warning
-        warnings.simplefilter("ignore", RuntimeWarning)
+    # A row without two neighbouring readings says nothing: judged as flat and never flagged (so
+    # that no NaN-only slice reaches numpy's nan-functions, whose warnings would need a
+    # process-wide filter, which run threads must not touch).
+    judgeable = ~np.all(np.isnan(np.diff(rows, axis=1)), axis=1)
+    if not judgeable.any():
+        return None
+    rows = np.where(judgeable[:, None], rows, 0.0)
+    with np.errstate(all="ignore"):
         if np.isnan(rows).any():
             centred = rows - np.nanmedian(rows, axis=1, keepdims=True)
             peak_to_valley = np.nanmax(centred, axis=1) - np.nanmin(centred, axis=1)
@@ -69,7 +75,8 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
             median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
         large = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
                  | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
-        small = (rms < PLAUSIBLE_MIN_RMS) & ~large if measured else np.zeros_like(large)
+        large &= judgeable
+        small = (rms < PLAUSIBLE_MIN_RMS) & ~large & judgeable if measured else np.zeros_like(large)
     coarse = measured and dx > PLAUSIBLE_MAX_DX
     bad = large | small | coarse
     if not bad.any():
