@@ -39,6 +39,8 @@ from roadtex.profiles.readers import READ_OPTIONS, read_profile
 PILOT_RUNS_PER_GROUP = 3
 #: Runs read to find the finest interval when there is no budget (spread over the manifest).
 PLAN_SAMPLE_RUNS = 8
+#: Runs tried per run wanted when sampled runs cannot be read (see :func:`readable`).
+PLAN_READ_ATTEMPTS = 3
 
 
 @dataclass(frozen=True)
@@ -153,11 +155,14 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
     """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
     texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
-    (run id -> why) and the next run of ``runs`` not yet tried takes its place."""
-    order = spread(runs, count)
-    order += [run for run in runs if all(run is not picked for picked in order)]
-    read = []
-    for run in order:
+    (run id -> why) and the untried run nearest a sampled one takes its place; at most
+    :data:`PLAN_READ_ATTEMPTS` x ``count`` runs are tried."""
+    picked = spread(runs, count)
+    where = [i for i, run in enumerate(runs) if any(run is p for p in picked)]
+    rest = sorted((i for i in range(len(runs)) if i not in set(where)), key=lambda i: (min(abs(i - w) for w in where), i))
+    order = picked + [runs[i] for i in rest]
+    read: list[tuple[dict[str, Any], Profile]] = []
+    for run in order[:PLAN_READ_ATTEMPTS * count]:
         if len(read) == count:
             break
         try:
