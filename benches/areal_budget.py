@@ -12,7 +12,9 @@ Two checks, on synthetic surfaces at 1 mm (E = 2 and 10 MPa, P = 0.2 MPa, tol 1e
    estimate against the whole tile's error, measured the same way.
 
 For each case and model it prints the largest shortfall (actual - stated, dB; <= 0 means covered)
-and the smallest and median ratio stated / actual; then the quantiles over all cases. With
+and the smallest and median ratio stated / actual, over the bands whose error is bounded (an
+analysed row touching the rubber at one spacing only has an unbounded pressure error, which no
+estimate covers: counted apart); then the quantiles over all cases. With
 ``--factor`` the Richardson factor is replaced (2 shows what first order would miss). A benchmark:
 it prints figures and never fails on them.
 """
@@ -104,11 +106,18 @@ def main() -> int:
                          else [windowed(kind, seed)])
                 for stated, actual in cases:
                     for model in areal.MODELS:
-                        ratio = stated[model] / np.maximum(actual[model], 1e-9)
+                        # a band where some analysed row touches at one spacing only has an
+                        # unbounded error that no estimate covers (documented): counted apart
+                        bounded = np.isfinite(actual[model])
+                        unbounded = int(np.sum(~bounded))
+                        ratio = stated[model][bounded] / np.maximum(actual[model][bounded], 1e-9)
                         ratios.setdefault(f"{check} {model}", []).extend(ratio[np.isfinite(ratio)].tolist())
-                        print(f"{check:6} {kind:16} {seed:3} {model:5} largest shortfall "
-                              f"{np.max(actual[model] - stated[model]):7.3f} dB, stated/actual smallest "
-                              f"{np.min(ratio):5.2f} median {np.median(ratio):5.2f}", flush=True)
+                        shortfall = np.max(actual[model][bounded] - stated[model][bounded]) if bounded.any() else np.nan
+                        print(f"{check:6} {kind:16} {seed:3} {model:5} largest shortfall {shortfall:7.3f} dB, "
+                              f"stated/actual smallest {np.min(ratio, initial=np.inf):5.2f} median "
+                              f"{np.median(ratio) if ratio.size else np.nan:5.2f}"
+                              + (f"; {unbounded} band(s) with an unbounded error (a row touching at one spacing)"
+                                 if unbounded else ""), flush=True)
     print("# stated/actual over every band of every case: 0 %, 1 %, 5 %, 50 % quantiles")
     for name, values in ratios.items():
         print(f"{name:13} " + "  ".join(f"{q:5.2f}" for q in np.quantile(values, [0.0, 0.01, 0.05, 0.5])))

@@ -40,6 +40,7 @@ from roadtex.archive.schemas import (
 )
 from roadtex.budget.areal import (
     AREAL_PILOT_POINTS,
+    WINDOW_FACTOR,
     SurfaceErrors,
     pilot_tile_indices,
     pilot_window,
@@ -349,7 +350,8 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
         tols=DEFAULT_TOLERANCES if options.tol_from_budget else (float(options.tol),),
         band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
-        pilot_tiles=tuple(int(t) for t in chosen))
+        pilot_tiles=tuple(int(t) for t in chosen),
+        window_factor=WINDOW_FACTOR if window.stop - window.start < n_y else 1.0)
 
 
 def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
