@@ -148,6 +148,9 @@ pub(crate) struct Problem<'a> {
     /// Bound-constrained CG steps before the sweeps on a cold start; None: the line model's
     /// choice by N ([`warm_up_iterations`]).
     pub warm_up: Option<usize>,
+    /// Bound-constrained CG steps from `initial` before the sweeps (a nested guess, whose contact
+    /// set is only roughly right); 0: the sweeps start on the guess's set.
+    pub guess_steps: usize,
 }
 
 /// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
@@ -179,7 +182,7 @@ pub(crate) fn solve<Op: Compliance>(
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
-    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, warm_up);
+    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, (warm_up, problem.guess_steps));
     let Context { coarse, w, .. } = context;
     w.coarse = coarse.zip(pair_sums).map(|(c, s)| (s.id(), c));
     outcome
@@ -222,7 +225,8 @@ struct SetSolve {
 impl<Op: Compliance> Context<'_, Op> {
     /// Warm start (from `initial`, else a few bounded-CG steps), the sweeps, and the bounded CG
     /// again if they do not settle.
-    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, warm_up: usize) -> Outcome {
+    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, steps: (usize, usize)) -> Outcome {
+        let (warm_up, guess_steps) = steps;
         let n = self.z.len();
         let target_sum = self.target_sum;
         let mut gap = vec![0.0; n];
@@ -233,35 +237,37 @@ impl<Op: Compliance> Context<'_, Op> {
             Some(q) => {
                 let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
                 let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
-                for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
-                    *m = pi > 0.0;
-                }
-                // A guess that already meets tol is returned as it is, before any coarse space is
-                // assembled (seconds at N = 2^19). Else the product is the first sweep's, bitwise.
-                let w = &mut *self.w;
-                self.op.displacement(&p, &mut w.displacement, &mut w.scratch);
-                let mut trial = w.mask.clone();
-                if update_set(self.z, &p, &mut trial, &mut gap, &w.displacement) == 0 {
-                    let res = residual(&p, &gap, self.scale);
-                    if res <= self.tol {
-                        return Outcome { pressure: p, gap, iterations: 0, residual: res, converged: true };
+                if guess_steps > 0 {
+                    // A nested guess: bound-constrained steps from it first.
+                    match self.bounded_start(p, guess_steps.min(max_iterations)) {
+                        Ok(start) => start,
+                        Err(done) => return done,
                     }
+                } else {
+                    for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
+                        *m = pi > 0.0;
+                    }
+                    // A guess that already meets tol is returned as it is, before any coarse space
+                    // is assembled (seconds at N = 2^19). Else the product is the first sweep's,
+                    // bitwise.
+                    let w = &mut *self.w;
+                    self.op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                    let mut trial = w.mask.clone();
+                    if update_set(self.z, &p, &mut trial, &mut gap, &w.displacement) == 0 {
+                        let res = residual(&p, &gap, self.scale);
+                        if res <= self.tol {
+                            return Outcome { pressure: p, gap, iterations: 0, residual: res, converged: true };
+                        }
+                    }
+                    (p, 0, true)
                 }
-                (p, 0, true)
             }
-            None => {
-                // A few bound-constrained CG steps from full contact shed most of the points that are
-                // not in contact far more cheaply than active-set sweeps would.
-                let warm_budget = warm_up.min(max_iterations);
-                let start = self.bounded_cg(vec![mean_strain; n], warm_budget);
-                if start.converged {
-                    return start;
-                }
-                for i in 0..n {
-                    self.w.mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
-                }
-                (start.pressure, start.iterations, false)
-            }
+            // A few bound-constrained CG steps from full contact shed most of the points that are
+            // not in contact far more cheaply than active-set sweeps would.
+            None => match self.bounded_start(vec![mean_strain; n], warm_up.min(max_iterations)) {
+                Ok(start) => start,
+                Err(done) => return done,
+            },
         };
         let max_iterations = max_iterations - warm;
         match self.sweeps(&mut p, &mut gap, max_iterations, known) {
@@ -279,6 +285,19 @@ impl<Op: Compliance> Context<'_, Op> {
                 Outcome { iterations: iterations + fallback.iterations, ..fallback }
             }
         }
+    }
+
+    /// `steps` bound-constrained CG steps from `p`, leaving their set (pressure or penetration) in
+    /// `w.mask`: Ok((pressure, iterations, false)) to go on with, Err(outcome) when converged.
+    fn bounded_start(&mut self, p: Vec<f64>, steps: usize) -> std::result::Result<(Vec<f64>, usize, bool), Outcome> {
+        let start = self.bounded_cg(p, steps);
+        if start.converged {
+            return Err(start);
+        }
+        for (m, (&pi, &g)) in self.w.mask.iter_mut().zip(start.pressure.iter().zip(&start.gap)) {
+            *m = pi > 0.0 || g < 0.0;
+        }
+        Ok((start.pressure, start.iterations, false))
     }
 
     /// The active-set sweeps from the set in `w.mask`: Ok((iterations, residual)) when converged,
