@@ -18,9 +18,10 @@
 //!   applied, the rest of it is the solver's vector work outside the transforms. Each repetition
 //!   is followed by the pair timing, the ratios are medians of per-repetition ratios (the machine
 //!   is shared), times the best, in the thread's CPU time where Linux reports it.
-//! * Job-like (`--job` for it alone, `--no-job` without it, `--job-sizes 256,512`): 8 tiles of n^2 at
+//! * Job-like (`--job` for it alone, `--no-job` without it, `--job-sizes 256,512`, `--job-tol`): 8 tiles of n^2 at
 //!   0.5 mm, E = 2, 5, 10 MPa in order, each tile's moduli warm-started from the last as
-//!   `solve_surfaces` does (only the first is a cold solve), tol 1e-6, cold and nested.
+//!   `solve_surfaces` does (only the first is a cold solve), tol 1e-6: before this pass (neither
+//!   the nested start nor bounded steps from a warm start), the nested start alone, and both.
 //!
 //! Run: `cargo bench --bench surface` (`-- --floor` for the tables alone). Threads: rayon's
 //! default (RAYON_NUM_THREADS=1 for one).
@@ -314,18 +315,23 @@ fn floor(sizes: &[usize], seeds: &[u64], tol: f64, kernel: KernelKind, nested_fr
 
 /// The job-like case: 8 tiles of n^2 at 0.5 mm (self-affine, rms slope 0.1, seeds 0-7), each
 /// under E = 2, 5, 10 MPa (nu 0.5, P = 0.2 MPa) in that order, warm-started from the last
-/// (`continuation::next_modulus_guess`, as `solve_surfaces` does), tol 1e-6: only the first
+/// (`continuation::next_modulus_guess`, as `solve_surfaces` does), tol 1e-6 (`--job-tol`): only the first
 /// modulus of each tile is a cold solve.
-fn job_like(n: usize, nested_from: usize) {
+fn job_like(n: usize, nested_from: usize, tol: f64) {
     let dx = 5e-4;
     let g = Grid { ny: n, nx: n, dx, dy: dx };
     let tiles: Vec<Vec<f64>> = (0..8).map(|seed| self_affine_surface(n, n as f64 * dx, 0.8, 0.1, seed)).collect();
     let rubbers: Vec<Material> = [2e6, 5e6, 1e7].iter().map(|&e| Material::new(e, 0.5).expect("material")).collect();
-    let options = SolverOptions { tol: 1e-6, ..Default::default() };
-    let cold = SurfaceSolver::new(g, options).expect("solver").with_nested_min_points(usize::MAX);
-    let nested = SurfaceSolver::new(g, options).expect("solver").with_nested_min_points(nested_from);
-    let names = [format!("job {n}^2 8 tiles x 3 E cold"), format!("job {n}^2 8 tiles x 3 E nested")];
-    for row in compare(&names, n, vec![chain(&cold, &tiles, &rubbers), chain(&nested, &tiles, &rubbers)], 3) {
+    let options = SolverOptions { tol, ..Default::default() };
+    // Before this pass (no nested start, the sweeps straight from a warm start), the nested start
+    // alone, and both (the solver's defaults).
+    let before = SurfaceSolver::new(g, options).expect("solver").with_nested_min_points(usize::MAX).with_warm_start_steps(0);
+    let nested = SurfaceSolver::new(g, options).expect("solver").with_nested_min_points(nested_from).with_warm_start_steps(0);
+    let both = SurfaceSolver::new(g, options).expect("solver").with_nested_min_points(nested_from);
+    let names =
+        [format!("job {n}^2 {tol:.0e} before"), format!("job {n}^2 {tol:.0e} nested"), format!("job {n}^2 {tol:.0e} nested+warm steps")];
+    let runs = vec![chain(&before, &tiles, &rubbers), chain(&nested, &tiles, &rubbers), chain(&both, &tiles, &rubbers)];
+    for row in compare(&names, n, runs, 3) {
         row.print();
     }
 }
@@ -342,6 +348,7 @@ fn main() {
     let tol = value("--tol").map_or(1e-8, |t| t.parse().expect("a tolerance"));
     // The threshold of the "nested" rows (points; default the solver's).
     let nested_from = value("--nested-from").map_or(NESTED_MIN_POINTS, |v| v.parse().expect("a number of points"));
+    let job_tol = value("--job-tol").map_or(1e-6, |t| t.parse().expect("a tolerance"));
     let kernel = if args.iter().any(|a| a == "--element") { KernelKind::Element } else { KernelKind::Spectral };
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one thread");
     one.install(|| {
@@ -350,7 +357,7 @@ fn main() {
         }
         if !args.iter().any(|a| a == "--no-job") {
             for n in list("--job-sizes").unwrap_or_else(|| vec![256, 512]) {
-                job_like(n, nested_from);
+                job_like(n, nested_from, job_tol);
             }
         }
     });

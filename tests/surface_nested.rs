@@ -111,3 +111,29 @@ fn nested_surface_solves_give_the_same_bits_on_one_and_two_threads() {
     assert_eq!(one, two);
     assert!(one.0.converged && one.0.residual <= 1e-8);
 }
+
+#[test]
+fn warm_starts_with_bounded_steps_agree_with_the_dense_direct_solve() {
+    // The job's chain: a softer rubber, then a stiffer one from its shifted pressure; with the
+    // default bounded steps from the guess and with none (the sweeps straight from it).
+    use roadtex::continuation::next_modulus_guess;
+    let grid = Grid { ny: 48, nx: 64, dx: 1.0 / 64.0, dy: 1.0 / 64.0 };
+    let heights = surface(48, 6);
+    let (soft, stiff) = (Material::new(0.75, 0.5).unwrap(), Material::new(2.0, 0.5).unwrap());
+    for periodic in [true, false] {
+        let direct_options = SolverOptions { periodic, method: Method::Direct, tol: 1e-12, ..Default::default() };
+        let direct = SurfaceSolver::new(grid, direct_options).unwrap().solve(&heights, stiff, P).unwrap();
+        let options = SolverOptions { periodic, tol: 1e-12, ..Default::default() };
+        for steps in [roadtex::surface::WARM_START_STEPS, 0] {
+            let solver = SurfaceSolver::new(grid, options).unwrap().with_warm_start_steps(steps);
+            let mut workspace = SurfaceWorkspace::default();
+            let first = solver.solve_from(&mut workspace, &heights, soft, P, None).unwrap();
+            let guess = next_modulus_guess(&first.pressure, soft, stiff);
+            let warm = solver.solve_from(&mut workspace, &heights, stiff, P, Some(&guess)).unwrap();
+            assert!(warm.converged && warm.residual <= 1e-12);
+            let d = max_relative_difference(&warm.pressure, &direct.pressure, P);
+            println!("periodic={periodic} steps={steps}: max|dp|/P {d:e}, {} iterations", warm.iterations);
+            assert!(d <= 1e-8, "periodic={periodic} steps={steps}: max|dp|/P {d:e}");
+        }
+    }
+}

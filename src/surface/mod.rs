@@ -57,6 +57,13 @@ pub const NESTED_TOL: f64 = 1e-3;
 /// At 512^2 (coarser levels at tol 1e-3): 2 steps 86 pairs per solve, 6 82, 10 76, 15 83.
 const NESTED_GUESS_STEPS: usize = 10;
 
+/// Bound-constrained CG steps from a warm start (the last modulus's pressure, shifted by
+/// `continuation::next_modulus_guess`) before the sweeps. From such a guess the bounded CG
+/// usually converges within them, and more cheaply than the sweeps, which run here without the
+/// line solver's island deflation: 8 tiles x 3 moduli (`benches/surface.rs`, job-like case, tol
+/// 1e-6), 256^2 60 -> 50 pairs per solve with 40 steps (55 with 10), 512^2 86 -> 67 (75).
+pub const WARM_START_STEPS: usize = 40;
+
 /// Checks the grid: sizes and spacings (m).
 pub fn validate_grid(grid: &Grid) -> Result<()> {
     if grid.ny < MIN_SIDE || grid.nx < MIN_SIDE || grid.len() < crate::solver::MIN_ELEMENTS {
@@ -173,6 +180,8 @@ pub struct SurfaceSolver {
     /// The solver of the next coarser level (2 x 2 blocks, or 1 x 2 / 2 x 1 with an odd side, at
     /// the tolerance [`NESTED_TOL`]), built on first use.
     coarser: std::sync::OnceLock<Box<SurfaceSolver>>,
+    /// Bound-constrained CG steps from a warm start before the sweeps.
+    warm_steps: usize,
 }
 
 impl SurfaceSolver {
@@ -190,7 +199,7 @@ impl SurfaceSolver {
         } else {
             Model::Finite(SurfaceFinite::new(grid))
         };
-        Ok(Self { grid, options, model, nested_min: NESTED_MIN_POINTS, coarser: std::sync::OnceLock::new() })
+        Ok(Self { grid, options, model, nested_min: NESTED_MIN_POINTS, coarser: std::sync::OnceLock::new(), warm_steps: WARM_START_STEPS })
     }
 
     /// The same solver with nested initial guesses for cold CG solves of at least `min_points`
@@ -198,6 +207,13 @@ impl SurfaceSolver {
     pub fn with_nested_min_points(mut self, min_points: usize) -> Self {
         self.nested_min = min_points;
         self.coarser = std::sync::OnceLock::new();
+        self
+    }
+
+    /// The same solver with `steps` bound-constrained CG steps from a warm start before the sweeps
+    /// (default [`WARM_START_STEPS`]; 0: the sweeps start on the guess's contact set).
+    pub fn with_warm_start_steps(mut self, steps: usize) -> Self {
+        self.warm_steps = steps;
         self
     }
 
@@ -261,7 +277,7 @@ impl SurfaceSolver {
             (Method::ConjugateGradient, _) => match initial_pressure {
                 Some(q) => {
                     let initial: Vec<f64> = q.iter().map(|&x| x / e_star).collect();
-                    self.solve_cg(workspace, &z, strain, scale, Some(&initial), 0)
+                    self.solve_cg(workspace, &z, strain, scale, Some(&initial), self.warm_steps)
                 }
                 None => {
                     let guess = self.nested_guess(workspace, &z, strain);
