@@ -3,7 +3,9 @@
 //! pressure, periodic in both directions (or finite). The discrete problem is the line model's
 //! with the surface kernel ([`kernel`]), solved by the same solvers (`crate::solver::cg`, without
 //! the 1-D island deflation, and `crate::solver::direct`), with the same stopping rule and
-//! residual ([`crate::solver::residual`]).
+//! residual ([`crate::solver::residual`]). Cold solves of [`NESTED_MIN_POINTS`] points or more
+//! start from the nested (coarse-to-fine) guess of `crate::solver::nested`; cold and warm starts
+//! take a few bound-constrained CG steps before the active-set sweeps.
 
 pub mod compliance;
 pub mod fft;
@@ -306,7 +308,8 @@ impl SurfaceSolver {
     fn height_scale(&self, z: &[f64], strain: f64) -> f64 {
         let Grid { ny, nx, dx, dy } = self.grid;
         let range = -z.iter().copied().fold(f64::INFINITY, f64::min);
-        let load_scale = strain * (nx as f64 * dx * ny as f64 * dy).sqrt();
+        let (lx, ly) = (nx as f64 * dx, ny as f64 * dy);
+        let load_scale = strain * (lx * ly).sqrt();
         if range > 1e-9 * load_scale {
             range
         } else {
