@@ -23,12 +23,11 @@
 //! height. Load balance holds to rounding at every step.
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
-use super::reduce::{
-    bounded_gap, cg_update, dot, dot2, free_direction, free_set, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, new_direction,
-    project_zero_sum, scale, step_and_count_negative, sum4,
-};
+use super::reduce::{cg_update, dot2, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, new_direction, project_zero_sum};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
+
+mod bounded;
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -149,6 +148,9 @@ pub(crate) struct Problem<'a> {
     /// Bound-constrained CG steps before the sweeps on a cold start; None: the line model's
     /// choice by N ([`warm_up_iterations`]).
     pub warm_up: Option<usize>,
+    /// Bound-constrained CG steps from `initial` before the sweeps (a nested guess, whose contact
+    /// set is only roughly right); 0: the sweeps start on the guess's set.
+    pub guess_steps: usize,
 }
 
 /// Solves for pressure / E* on `problem`, started from `initial` (pressure / E*, e.g. the solution
@@ -180,7 +182,7 @@ pub(crate) fn solve<Op: Compliance>(
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
-    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, warm_up);
+    let outcome = context.solve(problem.mean_strain, initial, problem.max_iterations, (warm_up, problem.guess_steps));
     let Context { coarse, w, .. } = context;
     w.coarse = coarse.zip(pair_sums).map(|(c, s)| (s.id(), c));
     outcome
@@ -223,7 +225,8 @@ struct SetSolve {
 impl<Op: Compliance> Context<'_, Op> {
     /// Warm start (from `initial`, else a few bounded-CG steps), the sweeps, and the bounded CG
     /// again if they do not settle.
-    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, warm_up: usize) -> Outcome {
+    fn solve(&mut self, mean_strain: f64, initial: Option<&[f64]>, max_iterations: usize, steps: (usize, usize)) -> Outcome {
+        let (warm_up, guess_steps) = steps;
         let n = self.z.len();
         let target_sum = self.target_sum;
         let mut gap = vec![0.0; n];
@@ -234,35 +237,37 @@ impl<Op: Compliance> Context<'_, Op> {
             Some(q) => {
                 let total: f64 = q.iter().map(|&x| x.max(0.0)).sum();
                 let p: Vec<f64> = q.iter().map(|&x| x.max(0.0) * target_sum / total).collect();
-                for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
-                    *m = pi > 0.0;
-                }
-                // A guess that already meets tol is returned as it is, before any coarse space is
-                // assembled (seconds at N = 2^19). Else the product is the first sweep's, bitwise.
-                let w = &mut *self.w;
-                self.op.displacement(&p, &mut w.displacement, &mut w.scratch);
-                let mut trial = w.mask.clone();
-                if update_set(self.z, &p, &mut trial, &mut gap, &w.displacement) == 0 {
-                    let res = residual(&p, &gap, self.scale);
-                    if res <= self.tol {
-                        return Outcome { pressure: p, gap, iterations: 0, residual: res, converged: true };
+                if guess_steps > 0 {
+                    // A nested guess: bound-constrained steps from it first.
+                    match self.bounded_start(p, guess_steps.min(max_iterations)) {
+                        Ok(start) => start,
+                        Err(done) => return done,
                     }
+                } else {
+                    for (m, &pi) in self.w.mask.iter_mut().zip(&p) {
+                        *m = pi > 0.0;
+                    }
+                    // A guess that already meets tol is returned as it is, before any coarse space
+                    // is assembled (seconds at N = 2^19). Else the product is the first sweep's,
+                    // bitwise.
+                    let w = &mut *self.w;
+                    self.op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                    let mut trial = w.mask.clone();
+                    if update_set(self.z, &p, &mut trial, &mut gap, &w.displacement) == 0 {
+                        let res = residual(&p, &gap, self.scale);
+                        if res <= self.tol {
+                            return Outcome { pressure: p, gap, iterations: 0, residual: res, converged: true };
+                        }
+                    }
+                    (p, 0, true)
                 }
-                (p, 0, true)
             }
-            None => {
-                // A few bound-constrained CG steps from full contact shed most of the points that are
-                // not in contact far more cheaply than active-set sweeps would.
-                let warm_budget = warm_up.min(max_iterations);
-                let start = self.bounded_cg(vec![mean_strain; n], warm_budget);
-                if start.converged {
-                    return start;
-                }
-                for i in 0..n {
-                    self.w.mask[i] = start.pressure[i] > 0.0 || start.gap[i] < 0.0;
-                }
-                (start.pressure, start.iterations, false)
-            }
+            // A few bound-constrained CG steps from full contact shed most of the points that are
+            // not in contact far more cheaply than active-set sweeps would.
+            None => match self.bounded_start(vec![mean_strain; n], warm_up.min(max_iterations)) {
+                Ok(start) => start,
+                Err(done) => return done,
+            },
         };
         let max_iterations = max_iterations - warm;
         match self.sweeps(&mut p, &mut gap, max_iterations, known) {
@@ -280,6 +285,19 @@ impl<Op: Compliance> Context<'_, Op> {
                 Outcome { iterations: iterations + fallback.iterations, ..fallback }
             }
         }
+    }
+
+    /// `steps` bound-constrained CG steps from `p`, leaving their set (pressure or penetration) in
+    /// `w.mask`: Ok((pressure, iterations, false)) to go on with, Err(outcome) when converged.
+    fn bounded_start(&mut self, p: Vec<f64>, steps: usize) -> std::result::Result<(Vec<f64>, usize, bool), Outcome> {
+        let start = self.bounded_cg(p, steps);
+        if start.converged {
+            return Err(start);
+        }
+        for (m, (&pi, &g)) in self.w.mask.iter_mut().zip(start.pressure.iter().zip(&start.gap)) {
+            *m = pi > 0.0 || g < 0.0;
+        }
+        Ok((start.pressure, start.iterations, false))
     }
 
     /// The active-set sweeps from the set in `w.mask`: Ok((iterations, residual)) when converged,
@@ -496,85 +514,6 @@ impl<Op: Compliance> Context<'_, Op> {
         }
         self.coarse = coarse;
         iterations
-    }
-
-    /// Bound-constrained CG (Vollebregt 2014) with the FFT preconditioner from `p`: the free set is
-    /// {p > 0} U {p = 0 and gap < 0}; pressures crossing zero are truncated and the iteration
-    /// continues with a Polak-Ribiere direction instead of restarting.
-    // `!(x > 0.0)` below is deliberate: it also stops on NaN. The free-set loop indexes four vectors in step.
-    #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
-    fn bounded_cg(&mut self, mut p: Vec<f64>, max_iterations: usize) -> Outcome {
-        let (op, z, w) = (self.op, self.z, &mut *self.w);
-        let n = z.len();
-        let mut gap = vec![0.0; n];
-        let mut free = vec![false; n];
-        let mut rho_before = 0.0;
-        let mut iterations = 0;
-        // Whether w.displacement holds C p tracked through the updates (else a fresh product is due).
-        let mut tracked = false;
-        let mut clipped_at: Vec<(usize, f64)> = Vec::new();
-        loop {
-            let mut fresh = !tracked;
-            if fresh {
-                op.displacement(&p, &mut w.displacement, &mut w.scratch);
-            }
-            let mut res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
-            if (res <= self.tol || iterations >= max_iterations) && !fresh {
-                // The stopping test and what is returned stand on a fresh product.
-                op.displacement(&p, &mut w.displacement, &mut w.scratch);
-                res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
-                fresh = true;
-            }
-            if res <= self.tol || iterations >= max_iterations {
-                debug_assert!(fresh);
-                return Outcome { pressure: p, gap, iterations, residual: res, converged: res <= self.tol };
-            }
-            let free_count = free_set(&mut free, &mut w.residual, &p, &gap);
-            project_zero_sum(&mut w.residual, &free, free_count);
-            op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
-            mask_and_project(&mut w.preconditioned, &free, free_count);
-            let rho = dot(&w.residual, &w.preconditioned);
-            if !(rho > 0.0) {
-                return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
-            }
-            // `direction` and `previous` are read only after this call wrote them (iterations > 0).
-            let beta = if iterations == 0 { 0.0 } else { ((rho - dot(&w.residual, &w.previous)) / rho_before).max(0.0) };
-            free_direction(&mut w.direction, &w.preconditioned, &free, beta, iterations == 0);
-            project_zero_sum(&mut w.direction, &free, free_count);
-            w.previous.copy_from_slice(&w.preconditioned);
-            op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let curvature = dot(&w.direction, &w.applied_direction);
-            if !(curvature > 0.0) {
-                return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
-            }
-            let alpha = dot(&w.residual, &w.direction) / curvature;
-            // C p follows p: + alpha C d, then a column per clipped point (a fresh product instead
-            // when more than a few are clipped), then the load rescaling.
-            clipped_at.clear();
-            let clipped = step_and_count_negative(&mut p, &mut w.displacement, &w.direction, &w.applied_direction, alpha);
-            if clipped > 0 {
-                for (i, pi) in p.iter_mut().enumerate().filter(|(_, pi)| **pi < 0.0) {
-                    if clipped <= MAX_COLUMN_UPDATES {
-                        clipped_at.push((i, -*pi));
-                    }
-                    *pi = 0.0;
-                }
-            }
-            let total = if clipped > 0 { sum4(&p) } else { 0.0 };
-            tracked = clipped <= MAX_COLUMN_UPDATES;
-            if tracked {
-                for &(j, delta) in &clipped_at {
-                    op.add_column(j, delta, &mut w.displacement);
-                }
-            }
-            if clipped > 0 {
-                let factor = self.target_sum / total;
-                scale(&mut p, factor);
-                scale(&mut w.displacement, factor);
-            }
-            rho_before = rho;
-            iterations += 1;
-        }
     }
 }
 

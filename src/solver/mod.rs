@@ -438,6 +438,7 @@ impl ContactSolver {
             tol: self.options.tol,
             max_iterations: self.options.max_iterations,
             warm_up: None,
+            guess_steps: 0,
         };
         match &self.model {
             Model::Periodic(op) => {
@@ -462,14 +463,15 @@ impl ContactSolver {
     /// below it) prolonged to this one; None when this level does not nest.
     fn nested_guess(&self, workspace: &mut Workspace, z: &[f64], strain: f64) -> Option<Vec<f64>> {
         let coarser = self.coarser()?;
-        let z_coarse = nested::restrict(z);
+        let blocks = nested::Blocks::line(self.n);
+        let z_coarse = nested::restrict(z, blocks);
         let scale = height_scale(&z_coarse, strain, coarser.dx);
         let below = workspace.coarser.get_or_insert_with(Default::default);
         below.levels = 0;
         let guess = coarser.nested_guess(below, &z_coarse, strain);
         let outcome = coarser.solve_cg(below, &z_coarse, strain, scale, guess.as_deref());
         workspace.levels = 1 + below.levels;
-        Some(nested::prolong(&outcome.pressure))
+        Some(nested::prolong(&outcome.pressure, blocks))
     }
 }
 
