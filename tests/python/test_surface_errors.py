@@ -244,3 +244,24 @@ def test_each_models_estimates_reach_its_own_rows_and_only_budget_bands_count(tm
     runs = with_plan(run.lazy(), "runs", None, empty, ["s"], own).collect().row(0, named=True)
     assert runs["worst_level_error_db"] == 20.0 and runs["within_budget"] is False   # not 500: band 30 is out
     assert runs["speedup"] == 1.5 and runs["time_saved_fraction"] == pytest.approx(1 / 3)
+
+
+def test_a_windows_scaled_estimate_still_lets_the_loosest_tolerance_through() -> None:
+    """The window factor scales the floor as it scales the estimates: a budget below the floor
+    still picks the loosest tolerance near it, not the tightest (a bug once made every windowed
+    run solve at 1e-10)."""
+    surface = synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.array([0, 5, 10, 15])
+    lines = remove_lines(tile[rows])[0]
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    chosen = areal.surface_level_errors(
+        tile[None], lines[None], (tile[rows] - lines)[None], rows, DX, DX, bands=bands,
+        in_budget=np.ones(bands.size, bool), run_rows=rows.size * MODULI.size, youngs_moduli=MODULI,
+        mean_pressure=PRESSURE, poisson=0.5, tols=(1e-4, 1e-6, 1e-8, 1e-10), budget_db=1e-3,
+        band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None,
+        window_factor=areal.WINDOW_FACTOR)
+    unscaled = pilot_at((1e-4, 1e-6, 1e-8, 1e-10), budget_db=1e-3)
+    assert chosen.tol == unscaled.tol > 1e-10
+    np.testing.assert_allclose(chosen.level_error_db["areal"], areal.WINDOW_FACTOR * unscaled.level_error_db["areal"])
+    np.testing.assert_array_equal(chosen.level_error_db["line"], unscaled.level_error_db["line"])

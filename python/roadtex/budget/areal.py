@@ -257,9 +257,10 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     reference = {model: solve(model, REFERENCE_TOL) for model in MODELS}
     # Richardson: L(h) - L(0) ~ factor (L(h) - L(h / 2)); the spacing's part of every estimate
     own = {}
+    scale = {"line": 1.0, "areal": window_factor}   # a window's areal estimate, scaled up as a whole
     for model in MODELS:
         halved, ok_half, _ = solve(model, REFERENCE_TOL, factor=2)
-        own[model] = RICHARDSON_FACTOR * spread(difference(halved, reference[model][0]), ok_half)
+        own[model] = RICHARDSON_FACTOR * spread(difference(halved, reference[model][0]), ok_half) * scale[model]
 
     def worst(estimates: dict[str, np.ndarray]) -> float:
         values = [np.where(np.isfinite(e), e, np.inf)[budget_mask] for e in estimates.values()]
@@ -276,9 +277,8 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
             else:
                 levels, ok, w = solve(model, tol)
             job_work += w
-            estimate = (SPREAD_FACTOR * spread(difference(levels, reference[model][0]), ok) + own[model]).max(axis=0)
-            if model == "areal":
-                estimate = estimate * window_factor
+            by_tol = SPREAD_FACTOR * spread(difference(levels, reference[model][0]), ok) * scale[model]
+            estimate = (by_tol + own[model]).max(axis=0)
             estimates[model] = np.where(np.isfinite(estimate), estimate, np.inf)
         if worst(estimates) <= allowed or tol == candidates[-1]:
             break
