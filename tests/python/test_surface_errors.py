@@ -265,3 +265,13 @@ def test_a_windows_scaled_estimate_still_lets_the_loosest_tolerance_through() ->
     assert chosen.tol == unscaled.tol > 1e-10
     np.testing.assert_allclose(chosen.level_error_db["areal"], areal.WINDOW_FACTOR * unscaled.level_error_db["areal"])
     np.testing.assert_array_equal(chosen.level_error_db["line"], unscaled.level_error_db["line"])
+
+
+def test_surface_runs_over_the_budget_are_warned_about_once(tmp_path: Path) -> None:
+    path = tmp_path / "s.npy"
+    np.save(path, synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5).heights)   # 1 mm: far off 0.2 dB
+    manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
+    options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI))
+    with pytest.warns(ErrorBudgetWarning, match=r"cannot be met at the sampling of 1 surface run\(s\) \(s: "):
+        process(manifest, tmp_path / "out", options, quiet=True)
+    assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["within_budget"].to_list() == [False]

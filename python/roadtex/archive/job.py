@@ -6,6 +6,7 @@ import dataclasses
 import os
 import platform
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Sequence
@@ -50,7 +51,7 @@ from roadtex.archive.store import (
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ArchiveWriteError, InvalidInputError, ResultsNotFoundError
+from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
 
 Engine = Literal["local", "dask"]
 #: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
@@ -211,6 +212,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     finally:
         progress.close()
     tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
+    warn_surfaces_over_budget(tables["runs"], [run["run_id"] for run in runs if is_surface_run(run)],
+                              options.error_budget_db)
     counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
               for state in ("ok", "error")}
     return ProcessSummary(
@@ -220,6 +223,21 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         seconds=time.perf_counter() - started, tables=tables,
         failed_on_record=sum(1 for s in statuses.values() if s["state"] == "error"), dx=plan.dx,
         surface_runs=sum(1 for run in runs if is_surface_run(run)))
+
+
+def warn_surfaces_over_budget(runs_path: Path, surface_ids: list[str], budget_db: float | None) -> None:
+    """One ErrorBudgetWarning naming the surface runs whose own pilot's estimate misses the budget
+    (the line runs' plan warns for its groups)."""
+    if budget_db is None or not surface_ids:
+        return
+    missed = (pl.read_parquet(runs_path).filter(pl.col("run_id").is_in(surface_ids) & (pl.col("within_budget").not_()))
+              .select("run_id", "worst_level_error_db"))
+    if missed.height:
+        worst = ", ".join(f"{rid}: {err:.3g} dB" for rid, err in missed.head(5).iter_rows())
+        more = f" and {missed.height - 5} more" if missed.height > 5 else ""
+        warnings.warn(f"the error budget of {budget_db:g} dB cannot be met at the sampling of {missed.height} surface "
+                      f"run(s) ({worst}{more}); each states its error per band (bands.parquet level_error_db)",
+                      ErrorBudgetWarning, stacklevel=3)
 
 
 def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: ProcessingOptions, *,
