@@ -99,3 +99,24 @@ def test_a_sampled_run_that_cannot_be_read_is_recorded_and_replaced(tmp_path: Pa
     assert set(plan["unread_runs"]) == {"r0"}
     assert plan["unread_runs"]["r0"].startswith("ProfileFormatError: r0.csv:")
     assert sorted(plan["groups"]["laser / dense_asphalt"]) == ["r1", "r2", "r3"]
+
+
+def test_an_unreadable_pick_is_replaced_by_its_own_neighbour(tmp_path: Path) -> None:
+    """The sample stays spread: of 10 runs, 3 are sampled (r0, r4, r9); r9 cannot be read, so r8,
+    its nearest untried neighbour, takes its place (not r1, next to a readable pick)."""
+    runs = []
+    for s in range(10):
+        path = write_profile(synthetic_pavement("dense_asphalt", 0.2, 5e-4, seed=s), tmp_path / f"r{s}.csv")
+        runs.append({"path": str(path), "run_id": f"r{s}"})
+    Path(runs[9]["path"]).write_text("garbage\n")
+    unread: dict[str, str] = {}
+    read = plan_module.readable(runs, OPTIONS, 3, unread)
+    assert [run["run_id"] for run, _ in read] == ["r0", "r4", "r8"]
+    assert list(unread) == ["r9"]
+    # at most PLAN_READ_ATTEMPTS runs are tried for a sampled one
+    for s in (8, 7, 6, 5):
+        Path(runs[s]["path"]).write_text("garbage\n")
+    unread = {}
+    read = plan_module.readable(runs, OPTIONS, 3, unread)
+    assert [run["run_id"] for run, _ in read] == ["r0", "r4"]
+    assert len(unread) == plan_module.PLAN_READ_ATTEMPTS

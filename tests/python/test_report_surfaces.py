@@ -102,7 +102,10 @@ def test_a_job_of_surface_runs_only_has_a_report(tmp_path: Path) -> None:
                                        run_length=0.6, surfaces_per_kind=1, surface_size=(0.4, 0.03))
     summary = process(manifest, tmp_path / "results", OPTIONS, quiet=True)
     assert summary.failed == 0 and summary.surface_runs == summary.runs == 1
-    assert "1 surface run(s) at their own spacings" in str(summary) and " m of road" in str(summary)
+    assert " m of road; 1 surface run(s) at their own spacings in " in str(summary)
     report = build_report(tmp_path / "results", out_dir=tmp_path / "report")
     assert {"surface_tiles", "line_vs_areal", "texture_spectra"} <= set(report.figures)
     assert not {"envelopes", "pressures", "valley_penetration", "von_meier"} & set(report.figures)
+    # the budget was on: the report says the surface runs carry their own estimates, not "budget off"
+    text = report.html.read_text(encoding="utf-8")
+    assert "No line-run pilot" in text and "error budget off" not in text

@@ -4,6 +4,7 @@ actually made, measured against a much finer solve of the same surface; bounded 
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +180,11 @@ def test_the_pilot_picks_the_loosest_tolerance_the_budget_allows() -> None:
     loose = pilot_at(ladder, budget_db=100.0)
     assert loose.tol == 1e-4 and loose.worst_db() == alone[1e-4]
     assert loose.work_speedup > pilot_at((1e-8,), 100.0).work_speedup > 1.0
+    # a budget between the floor and the loosest tol's estimate: a tighter tol that meets it
+    assert alone[1e-4] > floor
+    between = floor + 0.5 * (alone[1e-4] - floor)
+    middle = pilot_at(ladder, budget_db=between)
+    assert middle.tol < 1e-4 and middle.worst_db() <= between
     # a budget below the floor (as on the demo's 1 mm surfaces): the loosest within 5 % + 0.01 dB of it
     tight = pilot_at(ladder, budget_db=1e-3)
     allowed = 1.05 * floor + 0.01
@@ -272,6 +278,10 @@ def test_surface_runs_over_the_budget_are_warned_about_once(tmp_path: Path) -> N
     np.save(path, synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5).heights)   # 1 mm: far off 0.2 dB
     manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
     options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI))
-    with pytest.warns(ErrorBudgetWarning, match=r"cannot be met at the sampling of 1 surface run\(s\) \(s: "):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         process(manifest, tmp_path / "out", options, quiet=True)
+    over = [w for w in caught if issubclass(w.category, ErrorBudgetWarning) and "cannot be met" in str(w.message)]
+    assert len(over) == 1
+    assert "at the sampling of 1 surface run(s) (s: " in str(over[0].message)
     assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["within_budget"].to_list() == [False]

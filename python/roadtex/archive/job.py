@@ -86,7 +86,7 @@ class ProcessSummary:
         line_runs = self.runs - self.surface_runs
         grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None and line_runs else ""
         if self.surface_runs:
-            grid += (f"{',' if grid else ''} {self.surface_runs} surface run(s) at their own spacings")
+            grid += f"{',' if grid else ';'} {self.surface_runs} surface run(s) at their own spacings"
         length = f"{self.kilometres:.3f} km" if self.kilometres >= 1.0 else f"{self.kilometres * 1e3:.4g} m"
         return (f"{self.runs} runs: {self.processed} processed, {self.skipped} already done, "
                 f"{self.failed} failed{record}; {length} of road{grid} in {self.seconds:.1f} s "

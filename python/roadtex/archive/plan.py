@@ -39,7 +39,7 @@ from roadtex.profiles.readers import READ_OPTIONS, read_profile
 PILOT_RUNS_PER_GROUP = 3
 #: Runs read to find the finest interval when there is no budget (spread over the manifest).
 PLAN_SAMPLE_RUNS = 8
-#: Runs tried per run wanted when sampled runs cannot be read (see :func:`readable`).
+#: Runs tried per sampled run when sampled runs cannot be read (see :func:`readable`).
 PLAN_READ_ATTEMPTS = 3
 
 
@@ -155,28 +155,29 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
     """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
     texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
-    (run id -> why) and the untried run nearest a sampled one takes its place; at most
-    :data:`PLAN_READ_ATTEMPTS` x ``count`` runs are tried."""
-    picked = spread(runs, count)
-    where = [i for i, run in enumerate(runs) if any(run is p for p in picked)]
-    rest = sorted((i for i in range(len(runs)) if i not in set(where)), key=lambda i: (min(abs(i - w) for w in where), i))
-    order = picked + [runs[i] for i in rest]
+    (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
+    stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
+    picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
+    tried = set(picks)
     read: list[tuple[dict[str, Any], Profile]] = []
-    for run in order[:PLAN_READ_ATTEMPTS * count]:
-        if len(read) == count:
+    for pick in picks:
+        neighbours = sorted((i for i in range(len(runs)) if i not in tried), key=lambda i: (abs(i - pick), i))
+        for index in [pick] + neighbours[:PLAN_READ_ATTEMPTS - 1]:
+            tried.add(index)
+            run = runs[index]
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RoadtexWarning)
+                    profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
+            except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
+                unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
+                continue
+            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
+            if reason is not None:
+                unread[str(run["run_id"])] = reason
+                continue
+            read.append((run, profile))
             break
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RoadtexWarning)
-                profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
-        except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
-            unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
-            continue
-        reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
-        if reason is not None:
-            unread[str(run["run_id"])] = reason
-            continue
-        read.append((run, profile))
     return read
 
 

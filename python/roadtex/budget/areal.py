@@ -26,7 +26,7 @@ its pressure level is -inf at one) differs without bound; such rows are left out
 and no estimate covers them (their pressure levels mean little at any setting).
 
 The pilot is bounded. On a wide tile it solves a *window*: a strip of the tile along its whole
-length (the same bands) and :data:`AREAL_WINDOW_POINTS` points across, centred on the analysed row
+length (the same bands) and as many rows as make :data:`AREAL_WINDOW_POINTS` points, centred on the analysed row
 nearest the middle, its own plane removed, solved as a periodic cell as tiles are; the areal
 estimate comes from every row of it (the line model's, cheap, from every analysed row). The
 discretisation error of a row's levels depends on how finely the grid resolves the contact spots
@@ -53,7 +53,7 @@ from roadtex.spectra.levels import Method, band_levels
 AREAL_PILOT_TILES = 3
 
 #: Largest pilot window, in points at the run's spacing: a strip of the tile as long as the tile
-#: and this many points across (at least :data:`MIN_WINDOW_ROWS` rows). 2^15: 32 rows (16 mm at
+#: and as many rows across as make up this many points (at least :data:`MIN_WINDOW_ROWS` rows). 2^15: 32 rows (16 mm at
 #: 0.5 mm) of a 0.5 m tile at 0.5 mm, the strip width checked at 1 mm (16 of 64 rows: the
 #: estimates covered the whole tile's errors on 18 surfaces; README "Error budget: surface runs").
 AREAL_WINDOW_POINTS = 2 ** 15
@@ -91,7 +91,7 @@ RICHARDSON_FACTOR = 3.0
 
 @dataclass(frozen=True)
 class SurfaceErrors:
-    """Error estimates of a surface run's levels at its spacings and the job's tol.
+    """Error estimates of a surface run's levels at its spacings and the chosen tol.
 
     Attributes:
         bands: band numbers, those reported at the run's tile length and dx.
@@ -267,8 +267,11 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         return float(max((v.max() for v in values if v.size), default=0.0))
 
     floor = worst({m: own[m].max(axis=0) for m in MODELS})
-    allowed = max(budget_db, 1.05 * floor + 0.01)
+    # within the budget when the spacing allows it; else near the floor (as the line runs' pilot)
+    allowed = budget_db if floor <= budget_db else 1.05 * floor + 0.01
     candidates = sorted(tols, reverse=True)
+    if not np.isfinite(floor):   # no bounded sample in some budget band: nothing to judge a loose tol by
+        candidates = candidates[-1:]
     for tol in candidates:
         estimates, job_work = {}, 0.0
         for model in MODELS:

@@ -41,6 +41,15 @@ def pilot_state(results: Results) -> str | None:
                 "before the error budget), so no candidate setting can be shown.")
     if results.pilot.height == 0:
         plan = results.plan
+        budget = (results.parameters.get("options") or {}).get("error_budget_db")
+        if budget is not None and results.surface_bands is not None:
+            # a budget, but no line run for the job's pilot: the surface runs have their own
+            return (f"No line-run pilot: the job's error budget ({plain(budget)} dB) had no line run to study. "
+                    "The surface runs carry their own areal pilots' estimates and tolerances (the table of "
+                    "the 3D-surfaces section; runs.parquet worst_level_error_db, tol_used).")
+        if budget is not None:
+            return ("No pilot: the job had an error budget but no pilot could run (parameters.json plan: "
+                    "failed_pilots, unread_runs), so no level carries an error estimate.")
         setting = ""
         if plan.get("dx") is not None:
             setting = f" (every run solved at dx = {plain(plan['dx'] * MM)} mm, tol = {tolerance(plan.get('tol'))})"
