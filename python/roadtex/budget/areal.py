@@ -275,7 +275,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     for tol in candidates:
         estimates, job_work = {}, 0.0
         for model in MODELS:
-            if tol <= REFERENCE_TOL:   # the reference itself: no tolerance error left to measure
+            if tol == REFERENCE_TOL:   # the reference itself: no tolerance error left to measure
                 levels, ok, w = reference[model]
             else:
                 levels, ok, w = solve(model, tol)
