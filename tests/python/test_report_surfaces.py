@@ -3,6 +3,7 @@ line-against-areal table agrees with the plane-strain case."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -109,3 +110,5 @@ def test_a_job_of_surface_runs_only_has_a_report(tmp_path: Path) -> None:
     # the budget was on: the report says the surface runs carry their own estimates, not "budget off"
     text = report.html.read_text(encoding="utf-8")
     assert "No line-run pilot" in text and "error budget off" not in text
+    plan = json.loads((tmp_path / "results" / "parameters.json").read_text())["plan"]
+    assert plan["source"].startswith("no line run to plan for")

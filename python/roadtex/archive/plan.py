@@ -194,6 +194,10 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     """
     if options.error_budget_db is None:
         return plan_without_budget(runs, options), pl.DataFrame()
+    if not runs:   # surface runs only: each has its own pilot, spacings and tol
+        return JobPlan(dx=options.dx or 0.5e-3, tol=DEFAULT_TOL if options.tol is None else options.tol,
+                       source="no line run to plan for (surface runs: their own spacings, and their own "
+                              "pilots' tolerances and error estimates)"), pl.DataFrame()
     groups: dict[str, list[dict[str, Any]]] = {}
     for run in runs:
         groups.setdefault(group_key(run), []).append(run)
