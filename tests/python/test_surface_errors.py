@@ -285,3 +285,25 @@ def test_surface_runs_over_the_budget_are_warned_about_once(tmp_path: Path) -> N
     assert len(over) == 1
     assert "at the sampling of 1 surface run(s) (s: " in str(over[0].message)
     assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["within_budget"].to_list() == [False]
+
+
+@pytest.mark.parametrize("factor", [1, 2])
+def test_the_pilots_areal_levels_are_those_of_the_rows_it_names(factor: int) -> None:
+    """The pilot's areal levels along chosen rows (refined ``factor`` times, each row the mean of
+    its fine rows, moved by its line) equal the test's own computation of the same rows: a pilot
+    that read the wrong rows, averaged the wrong fine rows or skipped the move would differ (the
+    coverage tests, with their 2-3x slack, would not see it)."""
+    surface = synthetic_surface("porous_asphalt", 0.128, 0.016, DX, seed=9)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.array([3, 11])
+    lines = remove_lines(tile[rows])[0]
+    shift = tile[rows] - lines
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    setup = areal._Setup(MODULI, PRESSURE, 0.5, "third_octave", "dft", 2000, None)
+    pilot, ok, _ = areal._areal_levels(setup, tile[None], DX, DX, 1e-10, rows, factor, shift[None], bands)
+    ours = areal_levels(tile, rows, shift, factor, 1e-10, bands)      # (2, rows x moduli, bands), rows first
+    assert ok.all()
+    both_silent = np.isneginf(pilot) & np.isneginf(ours)
+    np.testing.assert_allclose(np.where(both_silent, 0.0, pilot), np.where(both_silent, 0.0, ours), atol=1e-9)
+    other = areal_levels(tile, rows[::-1], shift[::-1], factor, 1e-10, bands)
+    assert not np.allclose(np.where(both_silent, 0.0, pilot), np.where(both_silent, 0.0, other), atol=1e-3)
