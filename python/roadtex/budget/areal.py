@@ -43,11 +43,11 @@ from typing import Sequence
 
 import numpy as np
 
-from roadtex.budget.study import REFERENCE_TOL, SPREAD_FACTOR, band_columns, difference, extreme
+from roadtex.budget.study import REFERENCE_TOL, SPREAD_FACTOR, contact_levels, difference, extreme, solver_work
 from roadtex.models.contact import contact_many
 from roadtex.models.surface import contact_surface_many
-from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind
-from roadtex.spectra.levels import Method, band_levels
+from roadtex.spectra.bands import BandKind
+from roadtex.spectra.levels import Method
 
 #: Pilot tiles of a surface run, spread evenly along it (fewer when they are large).
 AREAL_PILOT_TILES = 3
@@ -113,8 +113,14 @@ class SurfaceErrors:
 
     def worst_db(self) -> float:
         """The largest estimate over both models in the budget bands (dB; 0 without budget bands)."""
-        values = [e[self.in_budget] for e in self.level_error_db.values()]
-        return float(max((v.max() for v in values if v.size), default=0.0))
+        return worst_in_budget(self.level_error_db, self.in_budget)
+
+
+def worst_in_budget(estimates: dict[str, np.ndarray], in_budget: np.ndarray) -> float:
+    """The largest of per-band ``estimates`` (model -> dB per band) in the budget bands; a
+    non-finite value (no bounded sample) counts as infinite; 0 without budget bands."""
+    values = [np.where(np.isfinite(e), e, np.inf)[in_budget] for e in estimates.values()]
+    return float(max((v.max() for v in values if v.size), default=0.0))
 
 
 def pilot_window(n_y: int, n_x: int, rows: np.ndarray) -> tuple[slice, np.ndarray]:
@@ -152,30 +158,14 @@ class _Setup:
     threads: int | None
 
 
-def _levels(setup: _Setup, envelope: np.ndarray, pressure: np.ndarray, dx: float,
-            bands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Enveloped and pressure levels (2, rows, bands) of signals (..., x) sampled every ``dx`` m,
-    in the columns of ``bands``, and whether each band is reported at ``dx``."""
-    n = envelope.shape[-1]
-    env = band_levels(envelope.reshape(-1, n), dx, kind=setup.kind, periodic=True, method=setup.method)
-    pres = band_levels(pressure.reshape(-1, n), dx, kind=setup.kind, periodic=True, method=setup.method,
-                       reference=REFERENCE_PRESSURE)
-    columns, ok = band_columns(env.bands, bands)
-    return np.stack([env.levels[:, columns], pres.levels[:, columns]]), ok
-
-
-def _work(iterations: np.ndarray, points: int) -> float:
-    return float(np.sum(iterations)) * points * np.log2(points)
-
-
 def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float,
                  bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """The line model on rows ``lines`` (rows, x): levels (2, rows x moduli, bands), reported, work."""
     batch = contact_many(lines, dx, setup.moduli, setup.mean_pressure, poisson=setup.poisson, tol=tol,
                          max_iterations=setup.max_iterations, threads=setup.threads, warm_start=True,
                          raise_on_nonconvergence=False)
-    levels, ok = _levels(setup, batch.envelope, batch.pressure, dx, bands)
-    return levels, ok, _work(batch.iterations, lines.shape[-1])
+    levels, ok = contact_levels(batch.envelope, batch.pressure, dx, bands, setup.kind, setup.method)
+    return levels, ok, solver_work(batch.iterations, lines.shape[-1])
 
 
 def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol: float, rows: np.ndarray,
@@ -196,8 +186,8 @@ def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol:
         return np.moveaxis(blocks, 1, 2)
 
     envelope = along_rows(solved.envelope) - np.repeat(shift, factor, axis=-1)[:, :, None, :]
-    levels, ok = _levels(setup, envelope, along_rows(solved.pressure), dx / factor, bands)
-    return levels, ok, _work(solved.iterations, fine.shape[1] * nx)
+    levels, ok = contact_levels(envelope, along_rows(solved.pressure), dx / factor, bands, setup.kind, setup.method)
+    return levels, ok, solver_work(solved.iterations, fine.shape[1] * nx)
 
 
 def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarray, rows: np.ndarray, dx: float,
@@ -262,11 +252,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         halved, ok_half, _ = solve(model, REFERENCE_TOL, factor=2)
         own[model] = RICHARDSON_FACTOR * spread(difference(halved, reference[model][0]), ok_half) * scale[model]
 
-    def worst(estimates: dict[str, np.ndarray]) -> float:
-        values = [np.where(np.isfinite(e), e, np.inf)[budget_mask] for e in estimates.values()]
-        return float(max((v.max() for v in values if v.size), default=0.0))
-
-    floor = worst({m: own[m].max(axis=0) for m in MODELS})
+    floor = worst_in_budget({m: own[m].max(axis=0) for m in MODELS}, budget_mask)
     # within the budget when the spacing allows it; else near the floor (as the line runs' pilot)
     allowed = budget_db if floor <= budget_db else 1.05 * floor + 0.01
     candidates = sorted(tols, reverse=True)
@@ -283,7 +269,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
             by_tol = SPREAD_FACTOR * spread(difference(levels, reference[model][0]), ok) * scale[model]
             estimate = (by_tol + own[model]).max(axis=0)
             estimates[model] = np.where(np.isfinite(estimate), estimate, np.inf)
-        if worst(estimates) <= allowed or tol == candidates[-1]:
+        if worst_in_budget(estimates, budget_mask) <= allowed or tol == candidates[-1]:
             break
     reference_work = sum(reference[m][2] for m in MODELS)
     speedup = reference_work / job_work if job_work > 0 else 1.0

@@ -42,7 +42,7 @@ from roadtex.models.contact import contact_many
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.profile import Profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
-from roadtex.spectra.levels import band_levels
+from roadtex.spectra.levels import Method, band_levels
 
 #: Tolerance of the reference solves (relative residual).
 REFERENCE_TOL = 1e-10
@@ -155,24 +155,34 @@ def band_columns(levels_bands: pl.DataFrame, bands: np.ndarray) -> tuple[np.ndar
     return columns, ok
 
 
+def contact_levels(envelope: np.ndarray, pressure: np.ndarray, dx: float, bands: np.ndarray, kind: BandKind,
+                   method: Method = "dft") -> tuple[np.ndarray, np.ndarray]:
+    """Enveloped and pressure levels (2, rows, bands) of solved signals (..., x; m and Pa) sampled
+    every ``dx`` m, in the columns of the band numbers ``bands``, and whether each is reported at ``dx``."""
+    n = envelope.shape[-1]
+    env = band_levels(envelope.reshape(-1, n), dx, kind=kind, periodic=True, method=method)
+    pres = band_levels(pressure.reshape(-1, n), dx, kind=kind, periodic=True, method=method,
+                       reference=REFERENCE_PRESSURE)
+    columns, ok = band_columns(env.bands, bands)
+    return np.stack([env.levels[:, columns], pres.levels[:, columns]]), ok
+
+
+def solver_work(iterations: np.ndarray, points: int) -> float:
+    """Iterations x N log2 N summed over solves of ``points`` points: a cost measure that, unlike the
+    seconds, does not depend on the machine's load, so that the same inputs choose the same setting."""
+    return float(np.sum(iterations)) * points * np.log2(points)
+
+
 def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Enveloped and pressure levels (2, rows, bands) of ``heights`` at (dx, tol), reported flags,
-    seconds, and the work: iterations x N log2 N summed over the solves, a cost measure that, unlike
-    the seconds, does not depend on the machine's load, so that the same inputs choose the same setting."""
+    seconds, and the work (:func:`solver_work`)."""
     start = time.perf_counter()
     batch = contact_many(heights, dx, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
                          max_iterations=pilot.max_iterations, threads=pilot.threads, warm_start=True,
                          raise_on_nonconvergence=False)
     seconds = time.perf_counter() - start
-    rows = heights.shape[0] * pilot.moduli.size
-    envelope = band_levels(batch.envelope.reshape(rows, -1), dx, kind=pilot.band_kind, periodic=True)
-    pressure = band_levels(batch.pressure.reshape(rows, -1), dx, kind=pilot.band_kind, periodic=True,
-                           reference=REFERENCE_PRESSURE)
-    columns, ok = band_columns(envelope.bands, pilot.bands["band"].to_numpy())
-    levels = np.stack([envelope.levels[:, columns], pressure.levels[:, columns]])
-    n = heights.shape[1]
-    work = float(np.sum(batch.iterations)) * n * np.log2(n)
-    return levels, ok, seconds, work
+    levels, ok = contact_levels(batch.envelope, batch.pressure, dx, pilot.bands["band"].to_numpy(), pilot.band_kind)
+    return levels, ok, seconds, solver_work(batch.iterations, heights.shape[1])
 
 
 def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
