@@ -12,7 +12,11 @@
 //! prefix sums of the kernel each entry costs O(1), so E costs O(islands^2), never an FFT.
 
 use super::factor::{cholesky, cholesky_solve};
+use super::far_field::{smooth_enough, Expansion};
 use super::wide::wide_fn;
+
+mod group_cache;
+pub(crate) use group_cache::GroupCache;
 
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
@@ -22,6 +26,10 @@ pub(crate) struct PairSums {
     n: usize,
     /// H(k) for k in [1 - N, N + 1], stored at k + N - 1.
     second: Vec<f64>,
+    /// c(d) for d in (-N, N), stored at d + N - 1: the far field's values.
+    kernel: Vec<f64>,
+    /// Whether groups far apart are summed through their expansions ([`super::far_field`]).
+    far_field: bool,
 }
 
 impl PairSums {
@@ -45,7 +53,21 @@ impl PairSums {
         }
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Self { id, n, second }
+        let kernel: Vec<f64> = (1 - ni..ni).map(&kernel_at).collect();
+        let mut sums = Self { id, n, second, kernel, far_field: false };
+        let exact = |a: &[(usize, usize)], b: &[(usize, usize)]| {
+            let b = sums.mirrored(b);
+            a.iter().map(|&r| sums.sum_over(r, &b)).sum()
+        };
+        sums.far_field = smooth_enough(&sums.kernel, n, exact);
+        sums
+    }
+
+    /// The far-field expansions of the groups (group g holds runs[bounds[g]..bounds[g + 1]]), each
+    /// taken from `kept` when it returns one; None when the kernel is summed exactly.
+    fn expansions(&self, runs: &[(usize, usize)], bounds: &[usize], kept: impl Fn(usize) -> Option<Expansion>) -> Option<Vec<Expansion>> {
+        self.far_field
+            .then(|| bounds.windows(2).enumerate().map(|(g, w)| kept(g).unwrap_or_else(|| Expansion::new(&runs[w[0]..w[1]]))).collect())
     }
 
     pub fn id(&self) -> u64 {
@@ -90,23 +112,40 @@ impl PairSums {
     /// Row `a` of the group matrix, entries b in `range`, into `g` (row-major, groups x groups)
     /// and its mirror: group a holds runs[bounds[a]..bounds[a + 1]], `mirrored` is
     /// [`PairSums::mirrored`] of `runs`; `out` is scratch.
+    /// Groups far from a (see [`super::far_field`]) take their entries from `far`, the groups'
+    /// expansions; the others, in maximal ranges, are summed exactly.
+    #[allow(clippy::too_many_arguments)]
     fn group_row(
         &self,
         (runs, mirrored): Runs<'_>,
         bounds: &[usize],
         a: usize,
         range: std::ops::Range<usize>,
+        far: Option<&[Expansion]>,
         g: &mut [f64],
         out: &mut Vec<f64>,
     ) {
         let groups = bounds.len() - 1;
         let tile = &runs[bounds[a]..bounds[a + 1]];
-        self.tile_sums(tile, mirrored, &bounds[range.start..=range.end], out);
-        for (b, sums) in range.zip(out.chunks_exact(tile.len())) {
-            // The tile's runs added in order (as `Iterator::sum` does).
-            let value: f64 = sums.iter().sum();
-            g[a * groups + b] = value;
-            g[b * groups + a] = value;
+        let is_far = |b: usize| far.is_some_and(|e| e[a].is_far(&e[b], self.n));
+        let mut b = range.start;
+        while b < range.end {
+            if let Some(e) = far.filter(|_| is_far(b)) {
+                let value = e[a].far_sum(&e[b], &self.kernel, self.n);
+                g[a * groups + b] = value;
+                g[b * groups + a] = value;
+                b += 1;
+                continue;
+            }
+            let end = (b + 1..range.end).find(|&e| is_far(e)).unwrap_or(range.end);
+            self.tile_sums(tile, mirrored, &bounds[b..=end], out);
+            for (c, sums) in (b..end).zip(out.chunks_exact(tile.len())) {
+                // The tile's runs added in order (as `Iterator::sum` does).
+                let value: f64 = sums.iter().sum();
+                g[a * groups + c] = value;
+                g[c * groups + a] = value;
+            }
+            b = end;
         }
     }
 
@@ -119,7 +158,7 @@ impl PairSums {
     ///
     /// O(runs^2) block sums, the hot loop of the coarse space: for each group, one pass of all its
     /// runs together over the runs of the later groups (see [`tile_sums`]), one write per group.
-    pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize]) -> Vec<f64> {
+    pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize], far: Option<&[Expansion]>) -> Vec<f64> {
         let groups = bounds.len() - 1;
         self.check_runs(runs);
         let mut g = vec![0.0; groups * groups];
@@ -129,7 +168,7 @@ impl PairSums {
             let members = bounds[ga]..bounds[ga + 1];
             g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
             if ga + 1 < groups {
-                self.group_row((runs, &mirrored), bounds, ga, ga + 1..groups, &mut g, &mut out);
+                self.group_row((runs, &mirrored), bounds, ga, ga + 1..groups, far, &mut g, &mut out);
             }
         }
         g
@@ -237,73 +276,6 @@ pub(crate) fn runs(mask: &[bool]) -> Vec<(usize, usize)> {
     out
 }
 
-/// The group matrix of the last grouped coarse space of one solve. Between sweeps most runs of
-/// the contact set stay where they were; keeping the groups by position (group g takes the runs
-/// that start at or after `starts[g]` and before `starts[g + 1]`) instead of re-splitting them
-/// into equal counts, the next space recomputes only the rows of the groups whose runs changed:
-/// O(changed runs x runs) instead of O(runs^2). One cache serves one solve only, so that no result
-/// depends on an earlier solve.
-pub(crate) struct GroupCache {
-    max_dim: usize,
-    starts: Vec<usize>,
-    runs: Vec<(usize, usize)>,
-    bounds: Vec<usize>,
-    g: Vec<f64>,
-}
-
-impl GroupCache {
-    /// The bounds of `runs` in the cached groups, or None when a group would be empty or the
-    /// dimension differs (then the space is built afresh).
-    fn regroup(&self, runs: &[(usize, usize)], max_dim: usize) -> Option<Vec<usize>> {
-        if self.max_dim != max_dim {
-            return None;
-        }
-        let groups = self.starts.len();
-        let mut bounds = Vec::with_capacity(groups + 1);
-        bounds.push(0);
-        let mut g = 0;
-        for (j, &(start, _)) in runs.iter().enumerate() {
-            while g + 1 < groups && start >= self.starts[g + 1] {
-                g += 1;
-                bounds.push(j);
-            }
-        }
-        while bounds.len() < groups + 1 {
-            bounds.push(runs.len());
-        }
-        bounds.windows(2).all(|w| w[0] < w[1]).then_some(bounds)
-    }
-
-    /// The group matrix for `runs` grouped by `bounds` (from [`GroupCache::regroup`]): rows of
-    /// unchanged groups kept, the others summed again. Consumes the cached matrix.
-    fn update(&mut self, pair_sums: &PairSums, runs: &[(usize, usize)], bounds: &[usize]) -> Vec<f64> {
-        pair_sums.check_runs(runs);
-        let groups = bounds.len() - 1;
-        let group = |g: usize| &runs[bounds[g]..bounds[g + 1]];
-        let changed: Vec<bool> = (0..groups).map(|g| group(g) != &self.runs[self.bounds[g]..self.bounds[g + 1]]).collect();
-        let mut g = std::mem::take(&mut self.g);
-        let mut out = Vec::new();
-        let mirrored = pair_sums.mirrored(runs);
-        for a in (0..groups).filter(|&a| changed[a]) {
-            g[a * groups + a] = pair_sums.diagonal_entry(group(a), &mirrored[bounds[a]..bounds[a + 1]]);
-            // Row a against every group but the changed ones before it (their rows did it): the
-            // unchanged groups before a in maximal ranges, then all groups after it.
-            let mut b = 0;
-            while b < a {
-                let end = (b..a).find(|&e| changed[e]).unwrap_or(a);
-                if end > b {
-                    pair_sums.group_row((runs, &mirrored), bounds, a, b..end, &mut g, &mut out);
-                }
-                b = end + 1;
-            }
-            if a + 1 < groups {
-                pair_sums.group_row((runs, &mirrored), bounds, a, a + 1..groups, &mut g, &mut out);
-            }
-        }
-        g
-    }
-}
-
 /// Zero-sum island vectors Z0_g = 1_{group g} - (|group g| / m) 1_A, where a group is one run
 /// of contact or, when there are more runs than `max_dim`, several consecutive runs; with the
 /// Cholesky factor of E = Z0^T C Z0.
@@ -354,15 +326,18 @@ impl CoarseSpace {
         let kept = cache.take().filter(|_| grouped);
         let regrouped = kept.as_ref().and_then(|c| c.regroup(&runs, max_dim));
         let equal_groups = regrouped.is_none();
-        let (bounds, g_matrix) = match (regrouped, kept) {
+        let (bounds, g_matrix, expansions) = match (regrouped, kept) {
             (Some(bounds), Some(mut c)) => {
                 let g = c.update(pair_sums, &runs, &bounds);
-                (bounds, g)
+                (bounds, g, c.expansions)
             }
             _ => {
                 let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
-                let g = pair_sums.group_matrix(&runs, &bounds);
-                (bounds, g)
+                // Singleton groups gain nothing from the far field (one block is cheaper than its
+                // interpolation): no expansions then.
+                let expansions = pair_sums.expansions(&runs, &bounds, |_| None).filter(|_| runs.len() > groups);
+                let g = pair_sums.group_matrix(&runs, &bounds, expansions.as_deref());
+                (bounds, g, expansions)
             }
         };
         let m = mask.iter().filter(|&&m| m).count() as f64;
@@ -396,7 +371,7 @@ impl CoarseSpace {
         if grouped {
             let mut starts: Vec<usize> = bounds[..groups].iter().map(|&j| runs[j].0).collect();
             starts[0] = 0;
-            *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix });
+            *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix, expansions });
         }
         let factor = factor?;
         let all_bounds = bounds.clone();
@@ -496,7 +471,7 @@ mod tests {
         let runs = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41)];
         for bounds in [vec![0usize, 1, 2, 3, 4, 5, 6], vec![0, 2, 3, 6], vec![0, 6]] {
             let groups = bounds.len() - 1;
-            let g = sums.group_matrix(&runs, &bounds);
+            let g = sums.group_matrix(&runs, &bounds, None);
             let members = |grp: usize| -> Vec<usize> { runs[bounds[grp]..bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
             for a in 0..groups {
                 for b in 0..groups {
@@ -515,9 +490,9 @@ mod tests {
         let sums = PairSums::new(n, kernel);
         let before = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41), (45, 50), (55, 64)];
         let bounds = vec![0usize, 2, 4, 6, 8];
-        let g = sums.group_matrix(&before, &bounds);
+        let g = sums.group_matrix(&before, &bounds, None);
         let starts = vec![0, 8, 22, 45];
-        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g };
+        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g, expansions: None };
         // One run of the second group grows, one of the last shrinks, a run joins the third.
         let after = [(0usize, 3usize), (5, 6), (8, 17), (20, 21), (22, 30), (33, 41), (42, 43), (45, 50), (56, 64)];
         let new_bounds = cache.regroup(&after, 4).expect("every group keeps a run");
@@ -534,6 +509,57 @@ mod tests {
         // A group left without runs, or another dimension: built afresh.
         assert!(cache.regroup(&after[..7], 4).is_none());
         assert!(cache.regroup(&after, 5).is_none());
+    }
+
+    #[test]
+    fn far_field_group_matrices_match_direct_double_sums_fresh_and_updated() {
+        // Many runs per group, as at N = 2^20 (some 30), so that far groups take the expansions.
+        let n = 8192;
+        let op = crate::compliance::PeriodicCompliance::new(n, 1e-4, crate::kernel::KernelKind::Element);
+        let sums = PairSums::new(n, |d| op.kernel_at(d));
+        assert!(sums.far_field);
+        let mut state = 12345u64;
+        let mut next = |m: u64| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 33) % m) as usize
+        };
+        let mut before = Vec::new();
+        let mut at = 3;
+        while at + 30 < n {
+            let len = 1 + next(8);
+            before.push((at, at + len));
+            at += len + 2 + next(18);
+        }
+        let groups = 16;
+        let bounds: Vec<usize> = (0..=groups).map(|g| g * before.len() / groups).collect();
+        let op = &op;
+        let check = |runs: &[(usize, usize)], bounds: &[usize], g: &[f64]| {
+            let members = |grp: usize| -> Vec<usize> { runs[bounds[grp]..bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
+            let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for a in 0..groups {
+                for b in 0..groups {
+                    let direct: f64 =
+                        members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| op.kernel_at(i as isize - l as isize))).sum();
+                    assert!((g[a * groups + b] - direct).abs() < 1e-10 * scale, "{a} {b}: {} vs {direct}", g[a * groups + b]);
+                }
+            }
+        };
+        let far = sums.expansions(&before, &bounds, |_| None);
+        let e = far.as_deref().unwrap();
+        let far_pairs = (0..groups).flat_map(|a| (0..groups).map(move |b| (a, b))).filter(|&(a, b)| e[a].is_far(&e[b], n)).count();
+        assert!(far_pairs > groups * groups / 3, "{far_pairs} far pairs of {}", groups * groups);
+        let g = sums.group_matrix(&before, &bounds, far.as_deref());
+        check(&before, &bounds, &g);
+        // Edges move in a few groups: the cached rows of the others are kept, the changed ones summed again.
+        let starts: Vec<usize> = bounds[..groups].iter().map(|&j| if j == 0 { 0 } else { before[j].0 }).collect();
+        let mut cache = GroupCache { max_dim: groups, starts, runs: before.clone(), bounds, g, expansions: far };
+        let mut after = before.clone();
+        for j in [5usize, 170, 171, 400] {
+            after[j].1 += 1;
+        }
+        let new_bounds = cache.regroup(&after, groups).expect("every group keeps its runs");
+        let g = cache.update(&sums, &after, &new_bounds);
+        check(&after, &new_bounds, &g);
     }
 
     #[test]

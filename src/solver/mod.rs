@@ -14,6 +14,7 @@ pub mod cg;
 mod deflation;
 pub mod direct;
 mod factor;
+mod far_field;
 pub mod nested;
 mod reduce;
 mod wide;
