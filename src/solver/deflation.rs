@@ -9,7 +9,9 @@
 //! islands are grouped or only the largest kept, and the gain shrinks (N >= 2^17 in practice).
 //!
 //! The coarse matrix E = Z^T C Z needs the kernel summed over pairs of intervals; with second
-//! prefix sums of the kernel each entry costs O(1), so E costs O(islands^2), never an FFT.
+//! prefix sums of the kernel each entry costs O(1), so E costs O(islands^2), never an FFT. When the
+//! islands are grouped (many per coarse vector), two groups far apart meet through an interpolated
+//! kernel instead ([`super::far_field`]): O(groups^2) beyond the neighbours of each group.
 
 use super::factor::{cholesky, cholesky_solve};
 use super::far_field::{smooth_enough, Expansion};
