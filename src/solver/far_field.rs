@@ -124,13 +124,16 @@ impl Expansion {
     /// The interpolated G[a, b] of this group a and `other` b; `kernel[d + N - 1]` = c(d) for
     /// -N < d < N.
     pub fn far_sum(&self, other: &Self, kernel: &[f64], n: usize) -> f64 {
+        assert!(kernel.len() >= 2 * n - 1 && self.hi <= n && other.hi <= n, "groups inside the kernel's range");
         let mut total = 0.0;
         for (&x, &ma) in self.nodes.iter().zip(&self.moments) {
-            // c(x - y) sits at x - y + N - 1.
-            let column = &kernel[..x + n];
+            // c(x - y) sits at x - y + N - 1: from the column of x on, at N - 1 - y.
+            let column = &kernel[x..];
             let mut row = 0.0;
             for (&y, &mb) in other.nodes.iter().zip(&other.moments) {
-                row += column[x + n - 1 - y] * mb;
+                // SAFETY: y < other.hi <= N and x < self.hi <= N, so x + N - 1 - y < 2N - 1 <= kernel.len()
+                // (asserted above): inside `column`. Unchecked: the far field's hot loop.
+                row += unsafe { column.get_unchecked(n - 1 - y) } * mb;
             }
             total += ma * row;
         }
