@@ -14,7 +14,7 @@
 //! kernel instead ([`super::far_field`]): O(groups^2) beyond the neighbours of each group.
 
 use super::factor::{cholesky, cholesky_solve};
-use super::far_field::{smooth_enough, Expansion};
+use super::far_field::{smooth_enough, Expansion, FarField, Lattice};
 use super::wide::wide_fn;
 
 mod group_cache;
@@ -31,7 +31,7 @@ pub(crate) struct PairSums {
     /// c(d) for d in (-N, N), stored at d + N - 1: the far field's values.
     kernel: Vec<f64>,
     /// Whether groups far apart are summed through their expansions ([`super::far_field`]).
-    far_field: bool,
+    smooth: bool,
 }
 
 impl PairSums {
@@ -56,20 +56,43 @@ impl PairSums {
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let kernel: Vec<f64> = (1 - ni..ni).map(&kernel_at).collect();
-        let mut sums = Self { id, n, second, kernel, far_field: false };
+        let mut sums = Self { id, n, second, kernel, smooth: false };
         let exact = |a: &[(usize, usize)], b: &[(usize, usize)]| {
             let b = sums.mirrored(b);
             a.iter().map(|&r| sums.sum_over(r, &b)).sum()
         };
-        sums.far_field = smooth_enough(&sums.kernel, n, exact);
+        sums.smooth = smooth_enough(&sums.kernel, n, exact);
         sums
     }
 
-    /// The far-field expansions of the groups (group g holds runs[bounds[g]..bounds[g + 1]]), each
-    /// taken from `kept` when it returns one; None when the kernel is summed exactly.
-    fn expansions(&self, runs: &[(usize, usize)], bounds: &[usize], kept: impl Fn(usize) -> Option<Expansion>) -> Option<Vec<Expansion>> {
-        self.far_field
-            .then(|| bounds.windows(2).enumerate().map(|(g, w)| kept(g).unwrap_or_else(|| Expansion::new(&runs[w[0]..w[1]]))).collect())
+    /// The far field of the groups (group g holds runs[bounds[g]..bounds[g + 1]]): `kept`'s lattice
+    /// and its expansions of the groups that have not `changed`, when given; None when the kernel
+    /// is summed exactly.
+    fn far_field(
+        &self,
+        runs: &[(usize, usize)],
+        bounds: &[usize],
+        kept: Option<FarField>,
+        changed: impl Fn(usize) -> bool,
+    ) -> Option<FarField> {
+        if !self.smooth {
+            return None;
+        }
+        let (lattice, old) = match kept {
+            Some(FarField { lattice, expansions }) => (lattice, expansions),
+            None => (Lattice::new(&self.kernel, self.n, Lattice::step_for(runs, bounds)), Vec::new()),
+        };
+        let mut old: Vec<Option<Expansion>> = old.into_iter().map(Some).collect();
+        let step = lattice.step();
+        let expansions = bounds
+            .windows(2)
+            .enumerate()
+            .map(|(g, w)| match old.get_mut(g).filter(|_| !changed(g)).and_then(Option::take) {
+                Some(e) => e,
+                None => Expansion::new(&runs[w[0]..w[1]], step, self.n),
+            })
+            .collect();
+        Some(FarField { expansions, lattice })
     }
 
     pub fn id(&self) -> u64 {
@@ -123,17 +146,17 @@ impl PairSums {
         bounds: &[usize],
         a: usize,
         range: std::ops::Range<usize>,
-        far: Option<&[Expansion]>,
+        far: Option<&FarField>,
         g: &mut [f64],
         out: &mut Vec<f64>,
     ) {
         let groups = bounds.len() - 1;
         let tile = &runs[bounds[a]..bounds[a + 1]];
-        let is_far = |b: usize| far.is_some_and(|e| e[a].is_far(&e[b], self.n));
+        let is_far = |b: usize| far.is_some_and(|f| f.expansions[a].is_far(&f.expansions[b], self.n));
         let mut b = range.start;
         while b < range.end {
-            if let Some(e) = far.filter(|_| is_far(b)) {
-                let value = e[a].far_sum(&e[b], &self.kernel, self.n);
+            if let Some(f) = far.filter(|_| is_far(b)) {
+                let value = f.expansions[a].far_sum(&f.expansions[b], &f.lattice);
                 g[a * groups + b] = value;
                 g[b * groups + a] = value;
                 b += 1;
@@ -160,7 +183,7 @@ impl PairSums {
     ///
     /// O(runs^2) block sums, the hot loop of the coarse space: for each group, one pass of all its
     /// runs together over the runs of the later groups (see [`tile_sums`]), one write per group.
-    pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize], far: Option<&[Expansion]>) -> Vec<f64> {
+    pub fn group_matrix(&self, runs: &[(usize, usize)], bounds: &[usize], far: Option<&FarField>) -> Vec<f64> {
         let groups = bounds.len() - 1;
         self.check_runs(runs);
         let mut g = vec![0.0; groups * groups];
@@ -328,18 +351,18 @@ impl CoarseSpace {
         let kept = cache.take().filter(|_| grouped);
         let regrouped = kept.as_ref().and_then(|c| c.regroup(&runs, max_dim));
         let equal_groups = regrouped.is_none();
-        let (bounds, g_matrix, expansions) = match (regrouped, kept) {
+        let (bounds, g_matrix, far) = match (regrouped, kept) {
             (Some(bounds), Some(mut c)) => {
                 let g = c.update(pair_sums, &runs, &bounds);
-                (bounds, g, c.expansions)
+                (bounds, g, c.far)
             }
             _ => {
                 let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
                 // Singleton groups gain nothing from the far field (one block is cheaper than its
                 // interpolation): no expansions then.
-                let expansions = pair_sums.expansions(&runs, &bounds, |_| None).filter(|_| runs.len() > groups);
-                let g = pair_sums.group_matrix(&runs, &bounds, expansions.as_deref());
-                (bounds, g, expansions)
+                let far = pair_sums.far_field(&runs, &bounds, None, |_| true).filter(|_| runs.len() > groups);
+                let g = pair_sums.group_matrix(&runs, &bounds, far.as_ref());
+                (bounds, g, far)
             }
         };
         let m = mask.iter().filter(|&&m| m).count() as f64;
@@ -373,7 +396,7 @@ impl CoarseSpace {
         if grouped {
             let mut starts: Vec<usize> = bounds[..groups].iter().map(|&j| runs[j].0).collect();
             starts[0] = 0;
-            *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix, expansions });
+            *cache = Some(GroupCache { max_dim, starts, runs: runs.clone(), bounds: bounds.clone(), g: g_matrix, far });
         }
         let factor = factor?;
         let all_bounds = bounds.clone();
@@ -494,7 +517,7 @@ mod tests {
         let bounds = vec![0usize, 2, 4, 6, 8];
         let g = sums.group_matrix(&before, &bounds, None);
         let starts = vec![0, 8, 22, 45];
-        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g, expansions: None };
+        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g, far: None };
         // One run of the second group grows, one of the last shrinks, a run joins the third.
         let after = [(0usize, 3usize), (5, 6), (8, 17), (20, 21), (22, 30), (33, 41), (42, 43), (45, 50), (56, 64)];
         let new_bounds = cache.regroup(&after, 4).expect("every group keeps a run");
@@ -519,7 +542,7 @@ mod tests {
         let n = 8192;
         let op = crate::compliance::PeriodicCompliance::new(n, 1e-4, crate::kernel::KernelKind::Element);
         let sums = PairSums::new(n, |d| op.kernel_at(d));
-        assert!(sums.far_field);
+        assert!(sums.smooth);
         let mut state = 12345u64;
         let mut next = |m: u64| {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -546,15 +569,15 @@ mod tests {
                 }
             }
         };
-        let far = sums.expansions(&before, &bounds, |_| None);
-        let e = far.as_deref().unwrap();
+        let far = sums.far_field(&before, &bounds, None, |_| true);
+        let e = &far.as_ref().unwrap().expansions;
         let far_pairs = (0..groups).flat_map(|a| (0..groups).map(move |b| (a, b))).filter(|&(a, b)| e[a].is_far(&e[b], n)).count();
         assert!(far_pairs > groups * groups / 3, "{far_pairs} far pairs of {}", groups * groups);
-        let g = sums.group_matrix(&before, &bounds, far.as_deref());
+        let g = sums.group_matrix(&before, &bounds, far.as_ref());
         check(&before, &bounds, &g);
         // Edges move in a few groups: the cached rows of the others are kept, the changed ones summed again.
         let starts: Vec<usize> = bounds[..groups].iter().map(|&j| if j == 0 { 0 } else { before[j].0 }).collect();
-        let mut cache = GroupCache { max_dim: groups, starts, runs: before.clone(), bounds, g, expansions: far };
+        let mut cache = GroupCache { max_dim: groups, starts, runs: before.clone(), bounds, g, far };
         let mut after = before.clone();
         for j in [5usize, 170, 171, 400] {
             after[j].1 += 1;

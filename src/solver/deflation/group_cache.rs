@@ -1,7 +1,7 @@
 //! The group matrix kept between the sweeps of one solve, so that the next coarse space sums
 //! again only the groups whose runs changed.
 
-use super::{Expansion, PairSums};
+use super::{FarField, PairSums};
 
 /// The group matrix of the last grouped coarse space of one solve. Between sweeps most runs of
 /// the contact set stay where they were; keeping the groups by position (group g takes the runs
@@ -15,8 +15,8 @@ pub(crate) struct GroupCache {
     pub(super) runs: Vec<(usize, usize)>,
     pub(super) bounds: Vec<usize>,
     pub(super) g: Vec<f64>,
-    /// The groups' far-field expansions (None: the kernel is summed exactly).
-    pub(super) expansions: Option<Vec<Expansion>>,
+    /// The groups' far field (None: the kernel is summed exactly).
+    pub(super) far: Option<FarField>,
 }
 
 impl GroupCache {
@@ -50,9 +50,9 @@ impl GroupCache {
         let group = |g: usize| &runs[bounds[g]..bounds[g + 1]];
         let changed: Vec<bool> = (0..groups).map(|g| group(g) != &self.runs[self.bounds[g]..self.bounds[g + 1]]).collect();
         let mut g = std::mem::take(&mut self.g);
-        let kept = self.expansions.take();
-        self.expansions = pair_sums.expansions(runs, bounds, |g| kept.as_ref().filter(|_| !changed[g]).map(|e| e[g].clone()));
-        let far = self.expansions.as_deref();
+        let kept = self.far.take();
+        self.far = kept.and_then(|k| pair_sums.far_field(runs, bounds, Some(k), |g| changed[g]));
+        let far = self.far.as_ref();
         let mut out = Vec::new();
         let mirrored = pair_sums.mirrored(runs);
         for a in (0..groups).filter(|&a| changed[a]) {
