@@ -14,7 +14,7 @@
 //! kernel instead ([`super::far_field`]): O(groups^2) beyond the neighbours of each group.
 
 use super::factor::{cholesky, cholesky_solve};
-use super::far_field::{smooth_enough, Expansion, FarField, Lattice};
+use super::far_field::{Expansion, FarField, Lattice, Singular, NODES};
 use super::wide::wide_fn;
 
 mod group_cache;
@@ -28,14 +28,18 @@ pub(crate) struct PairSums {
     n: usize,
     /// H(k) for k in [1 - N, N + 1], stored at k + N - 1.
     second: Vec<f64>,
-    /// c(d) for d in (-N, N), stored at d + N - 1: the far field's values.
+    /// c(d) for d in [0, N) (the kernels are even), read by the far field; empty without it.
     kernel: Vec<f64>,
-    /// Whether groups far apart are summed through their expansions ([`super::far_field`]).
-    smooth: bool,
+    /// The kernel's singular offsets when groups far apart are summed through their expansions
+    /// ([`super::far_field`]); None: every entry is summed exactly.
+    far: Option<Singular>,
 }
 
 impl PairSums {
-    pub fn new(n: usize, kernel_at: impl Fn(isize) -> f64) -> Self {
+    /// The sums of the kernel `kernel_at` (d in (-N, N)), with the far field for `far` (a kernel
+    /// smooth between integers off those singular offsets; None for one that is not, such as the
+    /// spectral kernel).
+    pub fn new(n: usize, kernel_at: impl Fn(isize) -> f64, far: Option<Singular>) -> Self {
         let ni = n as isize;
         // F(k) = sum_{0 <= j < k} c(j) for k >= 0, -sum_{k <= j < 0} c(j) for k < 0; k in [1-N, N].
         let mut first = vec![0.0; 2 * n];
@@ -55,14 +59,8 @@ impl PairSums {
         }
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let kernel: Vec<f64> = (1 - ni..ni).map(&kernel_at).collect();
-        let mut sums = Self { id, n, second, kernel, smooth: false };
-        let exact = |a: &[(usize, usize)], b: &[(usize, usize)]| {
-            let b = sums.mirrored(b);
-            a.iter().map(|&r| sums.sum_over(r, &b)).sum()
-        };
-        sums.smooth = smooth_enough(&sums.kernel, n, exact);
-        sums
+        let kernel: Vec<f64> = if far.is_some() { (0..ni).map(&kernel_at).collect() } else { Vec::new() };
+        Self { id, n, second, kernel, far }
     }
 
     /// The far field of the groups (group g holds runs[bounds[g]..bounds[g + 1]]): `kept`'s lattice
@@ -75,12 +73,10 @@ impl PairSums {
         kept: Option<FarField>,
         changed: impl Fn(usize) -> bool,
     ) -> Option<FarField> {
-        if !self.smooth {
-            return None;
-        }
+        let singular = self.far?;
         let (lattice, old) = match kept {
-            Some(FarField { lattice, expansions }) => (lattice, expansions),
-            None => (Lattice::new(&self.kernel, self.n, Lattice::step_for(runs, bounds)), Vec::new()),
+            Some(FarField { lattice, expansions, .. }) => (lattice, expansions),
+            None => (Lattice::new(&self.kernel, Lattice::step_for(runs, bounds)), Vec::new()),
         };
         let mut old: Vec<Option<Expansion>> = old.into_iter().map(Some).collect();
         let step = lattice.step();
@@ -92,7 +88,7 @@ impl PairSums {
                 None => Expansion::new(&runs[w[0]..w[1]], step, self.n),
             })
             .collect();
-        Some(FarField { expansions, lattice })
+        Some(FarField { expansions, lattice, singular })
     }
 
     pub fn id(&self) -> u64 {
@@ -135,28 +131,17 @@ impl PairSums {
     }
 
     /// Row `a` of the group matrix, entries b in `range`, into `g` (row-major, groups x groups)
-    /// and its mirror: group a holds runs[bounds[a]..bounds[a + 1]], `mirrored` is
-    /// [`PairSums::mirrored`] of `runs`; `out` is scratch.
-    /// Groups far from a (see [`super::far_field`]) take their entries from `far`, the groups'
-    /// expansions; the others, in maximal ranges, are summed exactly.
-    #[allow(clippy::too_many_arguments)]
-    fn group_row(
-        &self,
-        (runs, mirrored): Runs<'_>,
-        bounds: &[usize],
-        a: usize,
-        range: std::ops::Range<usize>,
-        far: Option<&FarField>,
-        g: &mut [f64],
-        out: &mut Vec<f64>,
-    ) {
+    /// and its mirror; `out` is scratch. Groups far from a (see [`super::far_field`]) take their
+    /// entries from the far field; the others, in maximal ranges, are summed exactly.
+    fn group_row(&self, groups: &Groups<'_>, a: usize, range: std::ops::Range<usize>, g: &mut [f64], out: &mut Vec<f64>) {
+        let Groups { runs, mirrored, bounds, far } = *groups;
         let groups = bounds.len() - 1;
         let tile = &runs[bounds[a]..bounds[a + 1]];
-        let is_far = |b: usize| far.is_some_and(|f| f.expansions[a].is_far(&f.expansions[b], self.n));
+        let is_far = |b: usize| far.is_some_and(|f| f.is_far(a, b, self.n));
         let mut b = range.start;
         while b < range.end {
             if let Some(f) = far.filter(|_| is_far(b)) {
-                let value = f.expansions[a].far_sum(&f.expansions[b], &f.lattice);
+                let value = f.far_sum(a, b);
                 g[a * groups + b] = value;
                 g[b * groups + a] = value;
                 b += 1;
@@ -189,11 +174,12 @@ impl PairSums {
         let mut g = vec![0.0; groups * groups];
         let mut out = Vec::new();
         let mirrored = self.mirrored(runs);
+        let all = Groups { runs, mirrored: &mirrored, bounds, far };
         for ga in 0..groups {
             let members = bounds[ga]..bounds[ga + 1];
             g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
             if ga + 1 < groups {
-                self.group_row((runs, &mirrored), bounds, ga, ga + 1..groups, far, &mut g, &mut out);
+                self.group_row(&all, ga, ga + 1..groups, &mut g, &mut out);
             }
         }
         g
@@ -207,8 +193,14 @@ impl PairSums {
     }
 }
 
-/// Runs [start, end) and their [`PairSums::mirrored`] form.
-type Runs<'a> = (&'a [(usize, usize)], &'a [(usize, usize)]);
+/// Groups of runs as the group matrix is summed: runs [start, end), their [`PairSums::mirrored`]
+/// form, group g holding runs[bounds[g]..bounds[g + 1]], and the groups' far field if any.
+pub(crate) struct Groups<'a> {
+    pub runs: &'a [(usize, usize)],
+    pub mirrored: &'a [(usize, usize)],
+    pub bounds: &'a [usize],
+    pub far: Option<&'a FarField>,
+}
 
 wide_fn! {
 /// out[g * tile.len() + j] = the block sums of `tile[j]` against the runs of group g of `others`
@@ -358,9 +350,10 @@ impl CoarseSpace {
             }
             _ => {
                 let bounds: Vec<usize> = (0..=groups).map(|g| g * runs.len() / groups).collect();
-                // Singleton groups gain nothing from the far field (one block is cheaper than its
-                // interpolation): no expansions then.
-                let far = pair_sums.far_field(&runs, &bounds, None, |_| true).filter(|_| runs.len() > groups);
+                // Groups of a few runs gain nothing from the far field (an entry of fewer than NODES^2
+                // blocks is cheaper exact), and building it costs O(set) (at N = 1,000, more than
+                // the whole matrix): none then, for the rest of the solve too (the cache keeps it).
+                let far = if runs.len() > NODES * groups { pair_sums.far_field(&runs, &bounds, None, |_| true) } else { None };
                 let g = pair_sums.group_matrix(&runs, &bounds, far.as_ref());
                 (bounds, g, far)
             }
@@ -478,7 +471,7 @@ mod tests {
     fn pair_sums_match_direct_double_sums() {
         let n = 37;
         let kernel = |d: isize| ((d * 7 + 3) as f64).sin() + 0.1 * d as f64;
-        let sums = PairSums::new(n, kernel);
+        let sums = PairSums::new(n, kernel, None);
         for &(a, b) in &[(0usize, 5usize), (3, 4), (10, 37), (0, 37)] {
             for &(c, d) in &[(0usize, 1usize), (2, 9), (30, 37), (0, 37)] {
                 let direct: f64 = (a..b).flat_map(|i| (c..d).map(move |l| (i, l))).map(|(i, l)| kernel(i as isize - l as isize)).sum();
@@ -492,7 +485,7 @@ mod tests {
         let n = 41;
         // Symmetric, as every compliance kernel is (the matrix is assembled as symmetric).
         let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()) - 0.01 * (d * d) as f64;
-        let sums = PairSums::new(n, kernel);
+        let sums = PairSums::new(n, kernel, None);
         let runs = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41)];
         for bounds in [vec![0usize, 1, 2, 3, 4, 5, 6], vec![0, 2, 3, 6], vec![0, 6]] {
             let groups = bounds.len() - 1;
@@ -506,85 +499,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn group_cache_updates_only_changed_groups_to_the_direct_sums() {
-        let n = 64;
-        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()) - 0.01 * (d * d) as f64;
-        let sums = PairSums::new(n, kernel);
-        let before = [(0usize, 3usize), (5, 6), (8, 15), (20, 21), (22, 30), (33, 41), (45, 50), (55, 64)];
-        let bounds = vec![0usize, 2, 4, 6, 8];
-        let g = sums.group_matrix(&before, &bounds, None);
-        let starts = vec![0, 8, 22, 45];
-        let mut cache = GroupCache { max_dim: 4, starts, runs: before.to_vec(), bounds, g, far: None };
-        // One run of the second group grows, one of the last shrinks, a run joins the third.
-        let after = [(0usize, 3usize), (5, 6), (8, 17), (20, 21), (22, 30), (33, 41), (42, 43), (45, 50), (56, 64)];
-        let new_bounds = cache.regroup(&after, 4).expect("every group keeps a run");
-        assert_eq!(new_bounds, vec![0, 2, 4, 7, 9]);
-        let g = cache.update(&sums, &after, &new_bounds);
-        let members = |grp: usize| -> Vec<usize> { after[new_bounds[grp]..new_bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
-        for a in 0..4 {
-            for b in 0..4 {
-                let direct: f64 =
-                    members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
-                assert!((g[a * 4 + b] - direct).abs() < 1e-9 * direct.abs().max(1.0), "{a} {b}");
-            }
-        }
-        // A group left without runs, or another dimension: built afresh.
-        assert!(cache.regroup(&after[..7], 4).is_none());
-        assert!(cache.regroup(&after, 5).is_none());
-    }
-
-    #[test]
-    fn far_field_group_matrices_match_direct_double_sums_fresh_and_updated() {
-        // Many runs per group, as at N = 2^20 (some 30), so that far groups take the expansions.
-        let n = 8192;
-        let op = crate::compliance::PeriodicCompliance::new(n, 1e-4, crate::kernel::KernelKind::Element);
-        let sums = PairSums::new(n, |d| op.kernel_at(d));
-        assert!(sums.smooth);
-        let mut state = 12345u64;
-        let mut next = |m: u64| {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 33) % m) as usize
-        };
-        let mut before = Vec::new();
-        let mut at = 3;
-        while at + 30 < n {
-            let len = 1 + next(8);
-            before.push((at, at + len));
-            at += len + 2 + next(18);
-        }
-        let groups = 16;
-        let bounds: Vec<usize> = (0..=groups).map(|g| g * before.len() / groups).collect();
-        let op = &op;
-        let check = |runs: &[(usize, usize)], bounds: &[usize], g: &[f64]| {
-            let members = |grp: usize| -> Vec<usize> { runs[bounds[grp]..bounds[grp + 1]].iter().flat_map(|&(s, e)| s..e).collect() };
-            let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for a in 0..groups {
-                for b in 0..groups {
-                    let direct: f64 =
-                        members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| op.kernel_at(i as isize - l as isize))).sum();
-                    assert!((g[a * groups + b] - direct).abs() < 1e-10 * scale, "{a} {b}: {} vs {direct}", g[a * groups + b]);
-                }
-            }
-        };
-        let far = sums.far_field(&before, &bounds, None, |_| true);
-        let e = &far.as_ref().unwrap().expansions;
-        let far_pairs = (0..groups).flat_map(|a| (0..groups).map(move |b| (a, b))).filter(|&(a, b)| e[a].is_far(&e[b], n)).count();
-        assert!(far_pairs > groups * groups / 3, "{far_pairs} far pairs of {}", groups * groups);
-        let g = sums.group_matrix(&before, &bounds, far.as_ref());
-        check(&before, &bounds, &g);
-        // Edges move in a few groups: the cached rows of the others are kept, the changed ones summed again.
-        let starts: Vec<usize> = bounds[..groups].iter().map(|&j| if j == 0 { 0 } else { before[j].0 }).collect();
-        let mut cache = GroupCache { max_dim: groups, starts, runs: before.clone(), bounds, g, far };
-        let mut after = before.clone();
-        for j in [5usize, 170, 171, 400] {
-            after[j].1 += 1;
-        }
-        let new_bounds = cache.regroup(&after, groups).expect("every group keeps its runs");
-        let g = cache.update(&sums, &after, &new_bounds);
-        check(&after, &new_bounds, &g);
     }
 
     #[test]

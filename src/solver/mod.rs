@@ -24,6 +24,7 @@ use crate::error::{invalid, Result};
 use crate::kernel::CirculantScratch;
 use crate::kernel::KernelKind;
 use deflation::PairSums;
+use far_field::Singular;
 pub use wide::{set_wide_vectors, wide_vectors};
 
 /// Fewest elements a profile may have: below this the discrete model says nothing useful.
@@ -319,9 +320,15 @@ impl ContactSolver {
         };
         // The CG solver's coarse space takes its matrix from these sums and its products from the
         // model's operator: both must come from the same kernel (cg::solve relies on it).
+        // The far field of the coarse matrix needs a kernel smooth between integers: the element
+        // kernels are (logarithms, Clausen functions), the sampled spectral one is not (see
+        // deflation's far_field).
         let pair_sums = (options.method == Method::ConjugateGradient).then(|| match &model {
-            Model::Periodic(op) => PairSums::new(n, |d| op.kernel_at(d)),
-            Model::Finite(op) => PairSums::new(n, |d| op.kernel_at(d)),
+            Model::Periodic(op) => {
+                let far = (options.kernel == KernelKind::Element).then_some(Singular::Periodic);
+                PairSums::new(n, |d| op.kernel_at(d), far)
+            }
+            Model::Finite(op) => PairSums::new(n, |d| op.kernel_at(d), Some(Singular::AtZero)),
         });
         Ok(Self { n, dx, options, model, pair_sums, nested_min: nested::NESTED_MIN_ELEMENTS, coarser: std::sync::OnceLock::new() })
     }
