@@ -23,11 +23,17 @@
 //! height. Load balance holds to rounding at every step.
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
-use super::reduce::{cg_update, dot2, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, new_direction, project_zero_sum};
+use super::reduce::{
+    cg_update, dot2, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs, new_direction,
+    parallel, shift_gap_and_update, subtract_on_mask, sum4,
+};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
 mod bounded;
+mod covering;
+
+use covering::deflate_covering;
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -104,6 +110,8 @@ pub(crate) struct Work<S> {
     /// needs them (very many runs), so they are sized on first use.
     set_indicator: Vec<f64>,
     set_displacement: Vec<f64>,
+    /// The group sums of C y ([`covering`]).
+    group_sums: Vec<f64>,
 }
 
 impl<S> Work<S> {
@@ -123,6 +131,7 @@ impl<S> Work<S> {
             previous: vec![0.0; n],
             set_indicator: Vec::new(),
             set_displacement: Vec::new(),
+            group_sums: Vec::new(),
         }
     }
 
@@ -364,7 +373,7 @@ impl<Op: Compliance> Context<'_, Op> {
                 }
                 *pi = next;
             }
-            let total: f64 = p.iter().sum();
+            let total = sum4(p);
             if total > 0.0 {
                 let factor = self.target_sum / total;
                 p.iter_mut().for_each(|x| *x *= factor);
@@ -433,10 +442,8 @@ impl<Op: Compliance> Context<'_, Op> {
         if fresh {
             self.op.displacement(p, &mut w.displacement, &mut w.scratch);
         }
-        for ((r, &m), (&z, &u)) in w.residual.iter_mut().zip(&w.mask).zip(self.z.iter().zip(&w.displacement)) {
-            *r = if m { z - u } else { 0.0 };
-        }
-        project_zero_sum(&mut w.residual, &w.mask, count);
+        let sum = masked_difference(&mut w.residual, self.z, &w.displacement, &w.mask);
+        subtract_on_mask(&mut w.residual, &w.mask, sum / count as f64);
     }
 
     /// Deflated PCG on the fixed set `w.mask`: C_AA p_A + h = z_A with sum p_A unchanged. Stops
@@ -462,6 +469,8 @@ impl<Op: Compliance> Context<'_, Op> {
             coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p);
             self.set_residual(p, count, true);
         }
+        // A space covering every run (all but very many runs) deflates in passes over the set.
+        let covering = coarse.as_ref().filter(|c| c.covering_groups().is_some() && !parallel(self.z.len()));
         let (op, w) = (self.op, &mut *self.w);
         let start_norm = max_abs(&w.residual);
         let stop = if how.rough { how.abs_tol.max(ROUGH_REDUCTION * start_norm) } else { how.abs_tol };
@@ -473,9 +482,11 @@ impl<Op: Compliance> Context<'_, Op> {
         while residual_norm > stop && iterations < how.max_iterations {
             // y = M r on A, zero-sum.
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
-            mask_and_project(&mut w.preconditioned, &w.mask, count);
             // P^T y = y - Z E^-1 Z^T C y.
-            if let Some(coarse) = &coarse {
+            if let Some(coarse) = covering {
+                deflate_covering(op, w, coarse, count);
+            } else if let Some(coarse) = &coarse {
+                mask_and_project(&mut w.preconditioned, &w.mask, count);
                 op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
                 // restrict reads C y on the coarse space's runs only (all inside A) and takes its
                 // sum over the whole set A as given: sum over the mask, not over all N points.
@@ -483,6 +494,8 @@ impl<Op: Compliance> Context<'_, Op> {
                 coarse.restrict(&w.applied, total, &mut w.coarse_rhs);
                 coarse.solve(&mut w.coarse_rhs);
                 coarse.add_prolonged(&w.coarse_rhs, -1.0, &w.mask, &mut w.preconditioned);
+            } else {
+                mask_and_project(&mut w.preconditioned, &w.mask, count);
             }
             // rho = r . y and, for the Polak-Ribiere beta, r . y_previous, in one pass (`previous`
             // is read only after this solve wrote it: iterations > 0).
@@ -521,18 +534,7 @@ impl<Op: Compliance> Context<'_, Op> {
 /// and the next trial set in `mask` (points with p <= 0 leave, penetrating points join); returns
 /// whether the set changed.
 fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> usize {
-    let n = z.len();
-    for i in 0..n {
-        gap[i] = u[i] - z[i];
-    }
     let count = mask.iter().filter(|&&m| m).count();
-    let approach = -masked_sum(gap, mask) / count as f64;
-    gap.iter_mut().for_each(|g| *g += approach);
-    let mut changed = 0usize;
-    for i in 0..n {
-        let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
-        changed += (next != mask[i]) as usize;
-        mask[i] = next;
-    }
-    changed
+    let approach = -gap_and_masked_sum(gap, u, z, mask) / count as f64;
+    shift_gap_and_update(gap, p, mask, approach)
 }

@@ -166,7 +166,7 @@ fn open_gap_seq(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64]) -> (f64, usize
 }
 
 /// v -= mean on `mask` (in parallel blocks for long vectors).
-fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
+pub(crate) fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
     if parallel(v.len()) {
         v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).for_each(|(v, m)| subtract_on_mask_seq(v, m, mean));
     } else {
@@ -205,6 +205,104 @@ pub(crate) fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
         return;
     }
     subtract_on_mask(v, mask, sum / count as f64);
+}
+
+/// r = z - u on `mask`, 0 off it; returns the sum of r (one pass, the four partial sums of
+/// [`masked_sum`]; in parallel blocks for long vectors).
+pub(crate) fn masked_difference(r: &mut [f64], z: &[f64], u: &[f64], mask: &[bool]) -> f64 {
+    let n = r.len().min(z.len()).min(u.len()).min(mask.len());
+    let (r, z, u, mask) = (&mut r[..n], &z[..n], &u[..n], &mask[..n]);
+    if !parallel(n) {
+        return masked_difference_seq(r, z, u, mask);
+    }
+    let blocks = r.par_chunks_mut(BLOCK).zip(z.par_chunks(BLOCK)).zip(u.par_chunks(BLOCK)).zip(mask.par_chunks(BLOCK));
+    in_order(blocks.map(|(((r, z), u), m)| masked_difference_seq(r, z, u, m)).collect())
+}
+
+wide_fn! {
+fn masked_difference_seq(r: &mut [f64], z: &[f64], u: &[f64], mask: &[bool]) -> f64 {
+    let mut acc = [0.0; 4];
+    let mut r4 = r.chunks_exact_mut(4);
+    let (z4, u4, m4) = (z.chunks_exact(4), u.chunks_exact(4), mask.chunks_exact(4));
+    let (zt, ut, mt) = (z4.remainder(), u4.remainder(), m4.remainder());
+    for (((x, z), u), m) in (&mut r4).zip(z4).zip(u4).zip(m4) {
+        for k in 0..4 {
+            x[k] = if m[k] { z[k] - u[k] } else { 0.0 };
+            acc[k] += x[k];
+        }
+    }
+    let mut tail = 0.0;
+    for (((x, &z), &u), &m) in r4.into_remainder().iter_mut().zip(zt).zip(ut).zip(mt) {
+        *x = if m { z - u } else { 0.0 };
+        tail += *x;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+}
+
+/// gap = u - z, and its sum over `mask` (one pass, the four partial sums of [`masked_sum`]).
+pub(crate) fn gap_and_masked_sum(gap: &mut [f64], u: &[f64], z: &[f64], mask: &[bool]) -> f64 {
+    let n = gap.len().min(z.len()).min(u.len()).min(mask.len());
+    let (gap, z, u, mask) = (&mut gap[..n], &z[..n], &u[..n], &mask[..n]);
+    if !parallel(n) {
+        return gap_and_masked_sum_seq(gap, u, z, mask);
+    }
+    let blocks = gap.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).zip(z.par_chunks(BLOCK)).zip(mask.par_chunks(BLOCK));
+    in_order(blocks.map(|(((g, u), z), m)| gap_and_masked_sum_seq(g, u, z, m)).collect())
+}
+
+wide_fn! {
+fn gap_and_masked_sum_seq(gap: &mut [f64], u: &[f64], z: &[f64], mask: &[bool]) -> f64 {
+    let mut acc = [0.0; 4];
+    let mut g4 = gap.chunks_exact_mut(4);
+    let (u4, z4, m4) = (u.chunks_exact(4), z.chunks_exact(4), mask.chunks_exact(4));
+    let (ut, zt, mt) = (u4.remainder(), z4.remainder(), m4.remainder());
+    for (((g, u), z), m) in (&mut g4).zip(u4).zip(z4).zip(m4) {
+        for k in 0..4 {
+            g[k] = u[k] - z[k];
+            acc[k] += if m[k] { g[k] } else { 0.0 };
+        }
+    }
+    let mut tail = 0.0;
+    for (((g, &u), &z), &m) in g4.into_remainder().iter_mut().zip(ut).zip(zt).zip(mt) {
+        *g = u - z;
+        tail += if m { *g } else { 0.0 };
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+}
+
+/// gap += approach, then the next trial set in `mask` (points with p <= 0 leave, points with
+/// gap < 0 join); returns how many points changed (one pass).
+pub(crate) fn shift_gap_and_update(gap: &mut [f64], p: &[f64], mask: &mut [bool], approach: f64) -> usize {
+    let n = gap.len().min(p.len()).min(mask.len());
+    let (gap, p, mask) = (&mut gap[..n], &p[..n], &mut mask[..n]);
+    if !parallel(n) {
+        return shift_gap_and_update_seq(gap, p, mask, approach);
+    }
+    let blocks = gap.par_chunks_mut(BLOCK).zip(p.par_chunks(BLOCK)).zip(mask.par_chunks_mut(BLOCK));
+    blocks.map(|((g, p), m)| shift_gap_and_update_seq(g, p, m, approach)).sum()
+}
+
+wide_fn! {
+fn shift_gap_and_update_seq(gap: &mut [f64], p: &[f64], mask: &mut [bool], approach: f64) -> usize {
+    let mut changed = 0usize;
+    for ((g, &pi), m) in gap.iter_mut().zip(p).zip(mask.iter_mut()) {
+        *g += approach;
+        let next = if *m { pi > 0.0 } else { *g < 0.0 };
+        changed += (next != *m) as usize;
+        *m = next;
+    }
+    changed
+}
+}
+
+/// v zero off `mask`; returns the sum of v over it (one pass, sequential: for vectors below
+/// [`PARALLEL_MIN`]).
+pub(crate) fn mask_and_sum(v: &mut [f64], mask: &[bool]) -> f64 {
+    let n = v.len().min(mask.len());
+    debug_assert!(!parallel(n));
+    mask_and_sum_seq(&mut v[..n], &mask[..n])
 }
 
 wide_fn! {
