@@ -188,6 +188,8 @@ pub(crate) fn solve<Op: Compliance>(
         coarse,
         groups: None,
         last_changes: 0,
+        coarse_is_last: false,
+        coarse_reused: false,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -214,6 +216,10 @@ struct Context<'a, Op: Compliance> {
     groups: Option<GroupCache>,
     /// Points the last set update changed (0 before the first).
     last_changes: usize,
+    /// Whether `coarse` is the space this solve's last set solve deflated with (not one kept from
+    /// an earlier solve), and whether [`Context::coarse_space`] returned it again.
+    coarse_is_last: bool,
+    coarse_reused: bool,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -413,6 +419,7 @@ impl<Op: Compliance> Context<'_, Op> {
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
         if let Some(current) = current.filter(|c| c.is_same(&islands, dim, self.groups.as_ref())) {
+            self.coarse_reused = true;
             return Some(current);
         }
         // CoarseSpace::new relies on: `islands` being exactly the runs of the mask it is given
@@ -459,10 +466,15 @@ impl<Op: Compliance> Context<'_, Op> {
         }
         // `w.mask` stays the set `coarse` was built for until this returns: add_prolonged shifts
         // exactly those points, and restrict's weights are run lengths over the set's size.
+        self.coarse_reused = false;
         let coarse = self.coarse_space(how.deflate);
         self.set_residual(p, count, !how.displacement_known);
-        // A-DEF2 start: the coarse solve puts the right load on every island at once.
-        if let Some(coarse) = &coarse {
+        // A-DEF2 start: the coarse solve puts the right load on every island at once. Not when
+        // the last set solve deflated with this very space on this set (the precise sweep after a
+        // rough one that changed nothing, p as it left it): its residual is already orthogonal to
+        // the space (Z0^T C d = 0 for every direction), to rounding.
+        let orthogonal = self.coarse_is_last && self.coarse_reused;
+        if let Some(coarse) = coarse.as_ref().filter(|_| !orthogonal) {
             let w = &mut *self.w;
             coarse.restrict(&w.residual, 0.0, &mut w.coarse_rhs);
             coarse.solve(&mut w.coarse_rhs);
@@ -525,6 +537,7 @@ impl<Op: Compliance> Context<'_, Op> {
             rho_before = rho;
             iterations += 1;
         }
+        self.coarse_is_last = coarse.is_some();
         self.coarse = coarse;
         iterations
     }
