@@ -24,8 +24,8 @@
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
 use super::reduce::{
-    cg_update, dot2, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs, new_direction,
-    parallel, shift_gap_and_update, subtract_on_mask, sum4,
+    cg_update, cg_update_bits, dot2, gap_and_masked_sum, mask_and_project, mask_bits, masked_difference, masked_sum, masked_sum_and_dot,
+    masked_sum_and_dot_bits, max_abs, new_direction, parallel, shift_gap_and_update, subtract_on_mask, sum4,
 };
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
@@ -33,7 +33,7 @@ use crate::compliance::Compliance;
 mod bounded;
 mod covering;
 
-use covering::deflate_covering;
+use covering::{add_prolonged_covering, deflate_covering};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -112,6 +112,8 @@ pub(crate) struct Work<S> {
     set_displacement: Vec<f64>,
     /// The group sums of C y ([`covering`]).
     group_sums: Vec<f64>,
+    /// `mask` as [`mask_bits`], for the inner iterations of a covering space.
+    mask_bits: Vec<u64>,
 }
 
 impl<S> Work<S> {
@@ -132,6 +134,7 @@ impl<S> Work<S> {
             set_indicator: Vec::new(),
             set_displacement: Vec::new(),
             group_sums: Vec::new(),
+            mask_bits: Vec::new(),
         }
     }
 
@@ -474,16 +477,22 @@ impl<Op: Compliance> Context<'_, Op> {
         // rough one that changed nothing, p as it left it): its residual is already orthogonal to
         // the space (Z0^T C d = 0 for every direction), to rounding.
         let orthogonal = self.coarse_is_last && self.coarse_reused;
+        // A space covering every run (all but very many runs) deflates in passes over the set.
+        let covering = coarse.as_ref().filter(|c| c.covering_groups().is_some() && !parallel(self.z.len()));
         if let Some(coarse) = coarse.as_ref().filter(|_| !orthogonal) {
             let w = &mut *self.w;
             coarse.restrict(&w.residual, 0.0, &mut w.coarse_rhs);
             coarse.solve(&mut w.coarse_rhs);
-            coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p);
+            match covering {
+                Some(_) => add_prolonged_covering(coarse, &w.coarse_rhs, 1.0, p),
+                None => coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p),
+            }
             self.set_residual(p, count, true);
         }
-        // A space covering every run (all but very many runs) deflates in passes over the set.
-        let covering = coarse.as_ref().filter(|c| c.covering_groups().is_some() && !parallel(self.z.len()));
         let (op, w) = (self.op, &mut *self.w);
+        if covering.is_some() {
+            mask_bits(&w.mask, &mut w.mask_bits);
+        }
         let start_norm = max_abs(&w.residual);
         let stop = if how.rough { how.abs_tol.max(ROUGH_REDUCTION * start_norm) } else { how.abs_tol };
 
@@ -525,7 +534,10 @@ impl<Op: Compliance> Context<'_, Op> {
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask);
+            let (applied_sum, curvature) = match covering {
+                Some(_) => masked_sum_and_dot_bits(&w.direction, &w.applied_direction, &w.mask_bits),
+                None => masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask),
+            };
             let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {
                 break;
@@ -533,7 +545,11 @@ impl<Op: Compliance> Context<'_, Op> {
             let alpha = rho / curvature;
             // One pass over plain slices: p, C p and r move, off the set r stays zero; max|r| too.
             let (direction, applied) = (&w.direction[..], &w.applied_direction[..]);
-            residual_norm = cg_update([p, &mut w.displacement[..], &mut w.residual[..]], direction, applied, &w.mask, alpha, mean);
+            let pur = [&mut p[..], &mut w.displacement[..], &mut w.residual[..]];
+            residual_norm = match covering {
+                Some(_) => cg_update_bits(pur, direction, applied, &w.mask_bits, alpha, mean),
+                None => cg_update(pur, direction, applied, &w.mask, alpha, mean),
+            };
             rho_before = rho;
             iterations += 1;
         }
