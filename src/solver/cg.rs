@@ -24,16 +24,18 @@
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
 use super::reduce::{
-    cg_update, cg_update_bits, dot2, gap_and_masked_sum, mask_and_project, mask_bits, masked_difference, masked_sum, masked_sum_and_dot,
-    masked_sum_and_dot_bits, max_abs, new_direction, parallel, shift_gap_and_update, subtract_on_mask, sum4,
+    cg_update, dot2, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs, new_direction,
+    parallel, shift_gap_and_update, subtract_on_mask, sum4,
 };
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
 mod bounded;
 mod covering;
+mod mask_bits;
 
 use covering::{add_prolonged_covering, deflate_covering};
+use mask_bits::{cg_update_bits, mask_bits, masked_sum_and_dot_bits};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;

@@ -10,10 +10,11 @@
 //! per solve instead of 88 (26.9 pairs applied instead of 35.5); used only below 2 N log2 N
 //! operations, 91 instead of 88.
 
+use super::mask_bits::mask_and_sum_bits;
 use super::Work;
 use crate::compliance::Compliance;
 use crate::solver::deflation::CoarseSpace;
-use crate::solver::reduce::{mask_and_sum_bits, sum4};
+use crate::solver::reduce::sum4;
 
 /// y = M r made zero off the set and zero-sum on it, then deflated, P^T y = y - Z0 E^-1 Z0^T C y,
 /// for a coarse space that covers every run of the set (`w.preconditioned` holds y, `w.mask_bits`
@@ -75,7 +76,7 @@ mod tests {
             let (runs, bounds, _) = coarse.covering_groups().expect("every run kept");
             let mut w = Work::new(&op);
             w.mask.copy_from_slice(&mask);
-            crate::solver::reduce::mask_bits(&mask, &mut w.mask_bits);
+            crate::solver::cg::mask_bits::mask_bits(&mask, &mut w.mask_bits);
             for (i, y) in w.preconditioned.iter_mut().enumerate() {
                 *y = ((i * 7) as f64 * 0.31).sin() + 0.4;
             }
