@@ -23,11 +23,19 @@
 //! height. Load balance holds to rounding at every step.
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
-use super::reduce::{cg_update, dot2, mask_and_project, masked_sum, masked_sum_and_dot, max_abs, new_direction, project_zero_sum};
+use super::reduce::{
+    cg_update, dot2, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs, new_direction,
+    parallel, shift_gap_and_update, subtract_on_mask, sum4,
+};
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
 
 mod bounded;
+mod covering;
+mod mask_bits;
+
+use covering::{add_prolonged_covering, deflate_covering};
+use mask_bits::{cg_update_bits, mask_bits, masked_sum_and_dot_bits};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -104,6 +112,10 @@ pub(crate) struct Work<S> {
     /// needs them (very many runs), so they are sized on first use.
     set_indicator: Vec<f64>,
     set_displacement: Vec<f64>,
+    /// The group sums of C y ([`covering`]).
+    group_sums: Vec<f64>,
+    /// `mask` as [`mask_bits`], for the inner iterations of a covering space.
+    mask_bits: Vec<u64>,
 }
 
 impl<S> Work<S> {
@@ -123,6 +135,8 @@ impl<S> Work<S> {
             previous: vec![0.0; n],
             set_indicator: Vec::new(),
             set_displacement: Vec::new(),
+            group_sums: Vec::new(),
+            mask_bits: Vec::new(),
         }
     }
 
@@ -179,6 +193,8 @@ pub(crate) fn solve<Op: Compliance>(
         coarse,
         groups: None,
         last_changes: 0,
+        coarse_is_last: false,
+        coarse_reused: false,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -205,6 +221,10 @@ struct Context<'a, Op: Compliance> {
     groups: Option<GroupCache>,
     /// Points the last set update changed (0 before the first).
     last_changes: usize,
+    /// Whether `coarse` is the space this solve's last set solve deflated with (not one kept from
+    /// an earlier solve), and whether [`Context::coarse_space`] returned it again.
+    coarse_is_last: bool,
+    coarse_reused: bool,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -364,7 +384,7 @@ impl<Op: Compliance> Context<'_, Op> {
                 }
                 *pi = next;
             }
-            let total: f64 = p.iter().sum();
+            let total = sum4(p);
             if total > 0.0 {
                 let factor = self.target_sum / total;
                 p.iter_mut().for_each(|x| *x *= factor);
@@ -404,6 +424,7 @@ impl<Op: Compliance> Context<'_, Op> {
         // The same set as the last sweep (a rough sweep that changed nothing, then the precise
         // one), or as the last solve (a warm start; `solve` kept only a space of these pair sums).
         if let Some(current) = current.filter(|c| c.is_same(&islands, dim, self.groups.as_ref())) {
+            self.coarse_reused = true;
             return Some(current);
         }
         // CoarseSpace::new relies on: `islands` being exactly the runs of the mask it is given
@@ -433,10 +454,8 @@ impl<Op: Compliance> Context<'_, Op> {
         if fresh {
             self.op.displacement(p, &mut w.displacement, &mut w.scratch);
         }
-        for ((r, &m), (&z, &u)) in w.residual.iter_mut().zip(&w.mask).zip(self.z.iter().zip(&w.displacement)) {
-            *r = if m { z - u } else { 0.0 };
-        }
-        project_zero_sum(&mut w.residual, &w.mask, count);
+        let sum = masked_difference(&mut w.residual, self.z, &w.displacement, &w.mask);
+        subtract_on_mask(&mut w.residual, &w.mask, sum / count as f64);
     }
 
     /// Deflated PCG on the fixed set `w.mask`: C_AA p_A + h = z_A with sum p_A unchanged. Stops
@@ -452,17 +471,30 @@ impl<Op: Compliance> Context<'_, Op> {
         }
         // `w.mask` stays the set `coarse` was built for until this returns: add_prolonged shifts
         // exactly those points, and restrict's weights are run lengths over the set's size.
+        self.coarse_reused = false;
         let coarse = self.coarse_space(how.deflate);
         self.set_residual(p, count, !how.displacement_known);
-        // A-DEF2 start: the coarse solve puts the right load on every island at once.
-        if let Some(coarse) = &coarse {
+        // A-DEF2 start: the coarse solve puts the right load on every island at once. Not when
+        // the last set solve deflated with this very space on this set (the precise sweep after a
+        // rough one that changed nothing, p as it left it): its residual is already orthogonal to
+        // the space (Z0^T C d = 0 for every direction), to rounding.
+        let orthogonal = self.coarse_is_last && self.coarse_reused;
+        // A space covering every run (all but very many runs) deflates in passes over the set.
+        let covering = coarse.as_ref().filter(|c| c.covering_groups().is_some() && !parallel(self.z.len()));
+        if let Some(coarse) = coarse.as_ref().filter(|_| !orthogonal) {
             let w = &mut *self.w;
             coarse.restrict(&w.residual, 0.0, &mut w.coarse_rhs);
             coarse.solve(&mut w.coarse_rhs);
-            coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p);
+            match covering {
+                Some(_) => add_prolonged_covering(coarse, &w.coarse_rhs, 1.0, p),
+                None => coarse.add_prolonged(&w.coarse_rhs, 1.0, &w.mask, p),
+            }
             self.set_residual(p, count, true);
         }
         let (op, w) = (self.op, &mut *self.w);
+        if covering.is_some() {
+            mask_bits(&w.mask, &mut w.mask_bits);
+        }
         let start_norm = max_abs(&w.residual);
         let stop = if how.rough { how.abs_tol.max(ROUGH_REDUCTION * start_norm) } else { how.abs_tol };
 
@@ -473,9 +505,11 @@ impl<Op: Compliance> Context<'_, Op> {
         while residual_norm > stop && iterations < how.max_iterations {
             // y = M r on A, zero-sum.
             op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
-            mask_and_project(&mut w.preconditioned, &w.mask, count);
             // P^T y = y - Z E^-1 Z^T C y.
-            if let Some(coarse) = &coarse {
+            if let Some(coarse) = covering {
+                deflate_covering(op, w, coarse, count);
+            } else if let Some(coarse) = &coarse {
+                mask_and_project(&mut w.preconditioned, &w.mask, count);
                 op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
                 // restrict reads C y on the coarse space's runs only (all inside A) and takes its
                 // sum over the whole set A as given: sum over the mask, not over all N points.
@@ -483,6 +517,8 @@ impl<Op: Compliance> Context<'_, Op> {
                 coarse.restrict(&w.applied, total, &mut w.coarse_rhs);
                 coarse.solve(&mut w.coarse_rhs);
                 coarse.add_prolonged(&w.coarse_rhs, -1.0, &w.mask, &mut w.preconditioned);
+            } else {
+                mask_and_project(&mut w.preconditioned, &w.mask, count);
             }
             // rho = r . y and, for the Polak-Ribiere beta, r . y_previous, in one pass (`previous`
             // is read only after this solve wrote it: iterations > 0).
@@ -500,7 +536,10 @@ impl<Op: Compliance> Context<'_, Op> {
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask);
+            let (applied_sum, curvature) = match covering {
+                Some(_) => masked_sum_and_dot_bits(&w.direction, &w.applied_direction, &w.mask_bits),
+                None => masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask),
+            };
             let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {
                 break;
@@ -508,10 +547,15 @@ impl<Op: Compliance> Context<'_, Op> {
             let alpha = rho / curvature;
             // One pass over plain slices: p, C p and r move, off the set r stays zero; max|r| too.
             let (direction, applied) = (&w.direction[..], &w.applied_direction[..]);
-            residual_norm = cg_update([p, &mut w.displacement[..], &mut w.residual[..]], direction, applied, &w.mask, alpha, mean);
+            let pur = [&mut p[..], &mut w.displacement[..], &mut w.residual[..]];
+            residual_norm = match covering {
+                Some(_) => cg_update_bits(pur, direction, applied, &w.mask_bits, alpha, mean),
+                None => cg_update(pur, direction, applied, &w.mask, alpha, mean),
+            };
             rho_before = rho;
             iterations += 1;
         }
+        self.coarse_is_last = coarse.is_some();
         self.coarse = coarse;
         iterations
     }
@@ -521,18 +565,7 @@ impl<Op: Compliance> Context<'_, Op> {
 /// and the next trial set in `mask` (points with p <= 0 leave, penetrating points join); returns
 /// whether the set changed.
 fn update_set(z: &[f64], p: &[f64], mask: &mut [bool], gap: &mut [f64], u: &[f64]) -> usize {
-    let n = z.len();
-    for i in 0..n {
-        gap[i] = u[i] - z[i];
-    }
     let count = mask.iter().filter(|&&m| m).count();
-    let approach = -masked_sum(gap, mask) / count as f64;
-    gap.iter_mut().for_each(|g| *g += approach);
-    let mut changed = 0usize;
-    for i in 0..n {
-        let next = if mask[i] { p[i] > 0.0 } else { gap[i] < 0.0 };
-        changed += (next != mask[i]) as usize;
-        mask[i] = next;
-    }
-    changed
+    let approach = -gap_and_masked_sum(gap, u, z, mask) / count as f64;
+    shift_gap_and_update(gap, p, mask, approach)
 }

@@ -428,6 +428,14 @@ impl CoarseSpace {
         self.weights.len()
     }
 
+    /// When every run of the set is in the space: all its groups as (runs, bounds: group g holds
+    /// runs[bounds[g]..bounds[g + 1]]), the last one too (which the space leaves out), and the
+    /// weights |group g| / |A| of the first [`CoarseSpace::dim`].
+    #[allow(clippy::type_complexity)]
+    pub fn covering_groups(&self) -> Option<(&[(usize, usize)], &[usize], &[f64])> {
+        self.complete.then_some((&self.runs[..], &self.all_bounds[..], &self.weights[..]))
+    }
+
     fn group(&self, g: usize) -> &[(usize, usize)] {
         &self.runs[self.bounds[g]..self.bounds[g + 1]]
     }

@@ -15,6 +15,14 @@ use rayon::prelude::*;
 use super::residual;
 use super::wide::wide_fn;
 
+/// x where `m`, else 0.0: the same value as `if m { x } else { 0.0 }`, bit for bit, but without a
+/// branch, so that the masked passes vectorise (with the branch they ran one point at a time,
+/// mispredicted on every ragged contact edge).
+#[inline(always)]
+fn keep(x: f64, m: bool) -> f64 {
+    f64::from_bits(x.to_bits() & (m as u64).wrapping_neg())
+}
+
 /// Vectors at least this long are processed in parallel blocks.
 pub(crate) const PARALLEL_MIN: usize = 1 << 17;
 /// Points per block of a parallel pass (a multiple of 4, so blocks keep the four-sum pattern).
@@ -166,7 +174,7 @@ fn open_gap_seq(z: &[f64], p: &[f64], u: &[f64], gap: &mut [f64]) -> (f64, usize
 }
 
 /// v -= mean on `mask` (in parallel blocks for long vectors).
-fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
+pub(crate) fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
     if parallel(v.len()) {
         v.par_chunks_mut(BLOCK).zip(mask.par_chunks(BLOCK)).for_each(|(v, m)| subtract_on_mask_seq(v, m, mean));
     } else {
@@ -177,9 +185,8 @@ fn subtract_on_mask(v: &mut [f64], mask: &[bool], mean: f64) {
 wide_fn! {
 fn subtract_on_mask_seq(v: &mut [f64], mask: &[bool], mean: f64) {
     for (x, &m) in v.iter_mut().zip(mask) {
-        if m {
-            *x -= mean;
-        }
+        // x - 0.0 is x, bit for bit (-0.0 included): the same as subtracting on the mask only.
+        *x -= keep(mean, m);
     }
 }
 }
@@ -207,6 +214,97 @@ pub(crate) fn mask_and_project(v: &mut [f64], mask: &[bool], count: usize) {
     subtract_on_mask(v, mask, sum / count as f64);
 }
 
+/// r = z - u on `mask`, 0 off it; returns the sum of r (one pass, the four partial sums of
+/// [`masked_sum`]; in parallel blocks for long vectors).
+pub(crate) fn masked_difference(r: &mut [f64], z: &[f64], u: &[f64], mask: &[bool]) -> f64 {
+    let n = r.len().min(z.len()).min(u.len()).min(mask.len());
+    let (r, z, u, mask) = (&mut r[..n], &z[..n], &u[..n], &mask[..n]);
+    if !parallel(n) {
+        return masked_difference_seq(r, z, u, mask);
+    }
+    let blocks = r.par_chunks_mut(BLOCK).zip(z.par_chunks(BLOCK)).zip(u.par_chunks(BLOCK)).zip(mask.par_chunks(BLOCK));
+    in_order(blocks.map(|(((r, z), u), m)| masked_difference_seq(r, z, u, m)).collect())
+}
+
+wide_fn! {
+fn masked_difference_seq(r: &mut [f64], z: &[f64], u: &[f64], mask: &[bool]) -> f64 {
+    let mut acc = [0.0; 4];
+    let mut r4 = r.chunks_exact_mut(4);
+    let (z4, u4, m4) = (z.chunks_exact(4), u.chunks_exact(4), mask.chunks_exact(4));
+    let (zt, ut, mt) = (z4.remainder(), u4.remainder(), m4.remainder());
+    for (((x, z), u), m) in (&mut r4).zip(z4).zip(u4).zip(m4) {
+        for k in 0..4 {
+            x[k] = keep(z[k] - u[k], m[k]);
+            acc[k] += x[k];
+        }
+    }
+    let mut tail = 0.0;
+    for (((x, &z), &u), &m) in r4.into_remainder().iter_mut().zip(zt).zip(ut).zip(mt) {
+        *x = if m { z - u } else { 0.0 };
+        tail += *x;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+}
+
+/// gap = u - z, and its sum over `mask` (one pass, the four partial sums of [`masked_sum`]).
+pub(crate) fn gap_and_masked_sum(gap: &mut [f64], u: &[f64], z: &[f64], mask: &[bool]) -> f64 {
+    let n = gap.len().min(z.len()).min(u.len()).min(mask.len());
+    let (gap, z, u, mask) = (&mut gap[..n], &z[..n], &u[..n], &mask[..n]);
+    if !parallel(n) {
+        return gap_and_masked_sum_seq(gap, u, z, mask);
+    }
+    let blocks = gap.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).zip(z.par_chunks(BLOCK)).zip(mask.par_chunks(BLOCK));
+    in_order(blocks.map(|(((g, u), z), m)| gap_and_masked_sum_seq(g, u, z, m)).collect())
+}
+
+wide_fn! {
+fn gap_and_masked_sum_seq(gap: &mut [f64], u: &[f64], z: &[f64], mask: &[bool]) -> f64 {
+    let mut acc = [0.0; 4];
+    let mut g4 = gap.chunks_exact_mut(4);
+    let (u4, z4, m4) = (u.chunks_exact(4), z.chunks_exact(4), mask.chunks_exact(4));
+    let (ut, zt, mt) = (u4.remainder(), z4.remainder(), m4.remainder());
+    for (((g, u), z), m) in (&mut g4).zip(u4).zip(z4).zip(m4) {
+        for k in 0..4 {
+            g[k] = u[k] - z[k];
+            acc[k] += keep(g[k], m[k]);
+        }
+    }
+    let mut tail = 0.0;
+    for (((g, &u), &z), &m) in g4.into_remainder().iter_mut().zip(ut).zip(zt).zip(mt) {
+        *g = u - z;
+        tail += if m { *g } else { 0.0 };
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+}
+
+/// gap += approach, then the next trial set in `mask` (points with p <= 0 leave, points with
+/// gap < 0 join); returns how many points changed (one pass).
+pub(crate) fn shift_gap_and_update(gap: &mut [f64], p: &[f64], mask: &mut [bool], approach: f64) -> usize {
+    let n = gap.len().min(p.len()).min(mask.len());
+    let (gap, p, mask) = (&mut gap[..n], &p[..n], &mut mask[..n]);
+    if !parallel(n) {
+        return shift_gap_and_update_seq(gap, p, mask, approach);
+    }
+    let blocks = gap.par_chunks_mut(BLOCK).zip(p.par_chunks(BLOCK)).zip(mask.par_chunks_mut(BLOCK));
+    blocks.map(|((g, p), m)| shift_gap_and_update_seq(g, p, m, approach)).sum()
+}
+
+wide_fn! {
+fn shift_gap_and_update_seq(gap: &mut [f64], p: &[f64], mask: &mut [bool], approach: f64) -> usize {
+    let mut changed = 0usize;
+    for ((g, &pi), m) in gap.iter_mut().zip(p).zip(mask.iter_mut()) {
+        *g += approach;
+        // if *m { pi > 0.0 } else { *g < 0.0 }, without a branch.
+        let next = (*m & (pi > 0.0)) | (!*m & (*g < 0.0));
+        changed += (next != *m) as usize;
+        *m = next;
+    }
+    changed
+}
+}
+
 wide_fn! {
 /// v zero off `mask`; returns the sum of v (over the mask).
 fn mask_and_sum_seq(v: &mut [f64], mask: &[bool]) -> f64 {
@@ -216,7 +314,7 @@ fn mask_and_sum_seq(v: &mut [f64], mask: &[bool]) -> f64 {
     let tail_mask = m4.remainder();
     for (x, m) in (&mut v4).zip(m4) {
         for k in 0..4 {
-            x[k] = if m[k] { x[k] } else { 0.0 };
+            x[k] = keep(x[k], m[k]);
             acc[k] += x[k];
         }
     }
@@ -240,7 +338,7 @@ fn masked_sum_seq(v: &[f64], mask: &[bool]) -> f64 {
     let tail: f64 = v4.remainder().iter().zip(m4.remainder()).map(|(&x, &m)| if m { x } else { 0.0 }).sum();
     for (x, m) in v4.zip(m4) {
         for k in 0..4 {
-            acc[k] += if m[k] { x[k] } else { 0.0 };
+            acc[k] += keep(x[k], m[k]);
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
@@ -324,7 +422,7 @@ fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
     let tail_ab: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
     for ((x, y), m) in a4.zip(b4).zip(m4) {
         for k in 0..4 {
-            sum[k] += if m[k] { y[k] } else { 0.0 };
+            sum[k] += keep(y[k], m[k]);
             ab[k] += x[k] * y[k];
         }
     }
@@ -340,7 +438,7 @@ fn cg_update_seq(pur: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alph
     let step = |pi: &mut f64, ui: &mut f64, ri: &mut f64, di: f64, ai: f64, m: bool| {
         *pi += alpha * di;
         *ui += alpha * ai;
-        *ri -= if m { alpha * (ai - mean) } else { 0.0 };
+        *ri -= keep(alpha * (ai - mean), m);
         ri.abs()
     };
     let mut worst = [0.0f64; 4];
