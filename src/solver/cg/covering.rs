@@ -68,7 +68,7 @@ mod tests {
     fn deflated_vector_is_c_orthogonal_to_the_coarse_space() {
         let n = 64;
         let op = PeriodicCompliance::new(n, 1e-3, KernelKind::Element);
-        let sums = PairSums::new(n, |d| op.kernel_at(d));
+        let sums = PairSums::new(n, |d| op.kernel_at(d), None);
         let mask: Vec<bool> = (0..n).map(|i| matches!(i, 2..=6 | 9 | 14..=22 | 30..=31 | 40..=52 | 60..=63)).collect();
         let count = mask.iter().filter(|&&m| m).count();
         for max_dim in [6, 3] {
