@@ -363,7 +363,8 @@ impl<Op: Compliance> Context<'_, Op> {
                 if !rough {
                     // A precise solve on a settled set missed tol. The coarse matrix is assembled
                     // from second prefix sums of the kernel (PairSums), differences of large
-                    // numbers whose rounding can cap the attainable accuracy: retry without it.
+                    // numbers whose rounding can cap the attainable accuracy, and its far entries
+                    // are interpolated (far_field, about 1e-10 off): retry without it.
                     if !deflate {
                         break;
                     }
