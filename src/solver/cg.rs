@@ -385,7 +385,10 @@ impl<Op: Compliance> Context<'_, Op> {
             if !w.mask.iter().any(|&m| m) {
                 break;
             }
-            // New trial set: keep the pressures of points that stay, start new points at zero.
+            // New trial set: keep the pressures of points that stay, start new points at zero. The
+            // residual is then no longer orthogonal to any coarse space: no skipped A-DEF2 start
+            // next, even on a set seen before.
+            self.coarse_is_last = false;
             leaving.clear();
             for (i, (pi, &m)) in p.iter_mut().zip(&w.mask).enumerate() {
                 let next = if m { pi.max(0.0) } else { 0.0 };
@@ -476,7 +479,8 @@ impl<Op: Compliance> Context<'_, Op> {
     fn solve_on_set(&mut self, p: &mut [f64], how: SetSolve) -> usize {
         let count = self.w.mask.iter().filter(|&&m| m).count();
         if count <= 1 {
-            // One element carries the whole load: nothing to solve.
+            // One element carries the whole load: nothing to solve (and no deflated solve last).
+            self.coarse_is_last = false;
             return 0;
         }
         // `w.mask` stays the set `coarse` was built for until this returns: add_prolonged shifts

@@ -15,9 +15,11 @@ use rayon::prelude::*;
 use super::residual;
 use super::wide::wide_fn;
 
-/// x where `m`, else 0.0: the same value as `if m { x } else { 0.0 }`, bit for bit, but without a
-/// branch, so that the masked passes vectorise (with the branch they ran one point at a time,
-/// mispredicted on every ragged contact edge).
+/// x where `m`, else 0.0: the same value as `if m { x } else { 0.0 }`, bit for bit. Written as an
+/// AND, but LLVM still turns the bool's sign-extension back into a branch per point (seen in the
+/// AVX2 build of `masked_sum_and_dot_seq`): the inner iterations below the parallel size use stored
+/// 64-bit masks instead ([`super::cg`]'s `mask_bits`); these bool passes serve the parallel path
+/// and the sweeps.
 #[inline(always)]
 fn keep(x: f64, m: bool) -> f64 {
     f64::from_bits(x.to_bits() & (m as u64).wrapping_neg())

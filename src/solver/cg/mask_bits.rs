@@ -23,6 +23,7 @@ wide_fn! {
 /// `reduce::mask_and_project`'s zeroing and sum with the set as [`mask_bits`] (the same results;
 /// sequential).
 pub(crate) fn mask_and_sum_bits(v: &mut [f64], bits: &[u64]) -> f64 {
+    debug_assert_eq!(v.len(), bits.len(), "masks of the set's size");
     let n = v.len().min(bits.len());
     let (v, bits) = (&mut v[..n], &bits[..n]);
     let mut acc = [0.0; 4];
@@ -47,6 +48,7 @@ pub(crate) fn mask_and_sum_bits(v: &mut [f64], bits: &[u64]) -> f64 {
 wide_fn! {
 /// [`masked_sum_and_dot`](crate::solver::reduce::masked_sum_and_dot) with the set as [`mask_bits`] (the same results; sequential).
 pub(crate) fn masked_sum_and_dot_bits(a: &[f64], b: &[f64], bits: &[u64]) -> (f64, f64) {
+    debug_assert!(a.len() == bits.len() && b.len() == bits.len(), "masks of the set's size");
     let n = a.len().min(b.len()).min(bits.len());
     let (a, b, bits) = (&a[..n], &b[..n], &bits[..n]);
     let (mut sum, mut ab) = ([0.0; 4], [0.0; 4]);
@@ -65,6 +67,7 @@ pub(crate) fn masked_sum_and_dot_bits(a: &[f64], b: &[f64], bits: &[u64]) -> (f6
 
 /// [`cg_update`](crate::solver::reduce::cg_update) with the set as [`mask_bits`] (the same results; sequential).
 pub(crate) fn cg_update_bits([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], bits: &[u64], alpha: f64, mean: f64) -> f64 {
+    debug_assert!([p.len(), u.len(), r.len(), d.len(), a.len()].iter().all(|&l| l == bits.len()), "masks of the set's size");
     let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(bits.len());
     cg_update_bits_seq([&mut p[..n], &mut u[..n], &mut r[..n]], &d[..n], &a[..n], &bits[..n], alpha, mean)
 }
@@ -94,4 +97,42 @@ fn cg_update_bits_seq(pur: [&mut [f64]; 3], d: &[f64], a: &[f64], bits: &[u64], 
     }
     worst[0].max(worst[1]).max(worst[2].max(worst[3])).max(tail)
 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::reduce::{cg_update, mask_and_project, masked_sum_and_dot};
+
+    /// The passes on 64-bit masks give the bool passes' values bit for bit, at every length
+    /// around the 4-wide chunks.
+    #[test]
+    fn bit_mask_passes_match_the_bool_passes_bit_for_bit() {
+        for n in 0..70usize {
+            let mask: Vec<bool> = (0..n).map(|i| (i * 5 + i / 3) % 7 < 3).collect();
+            let mut bits = Vec::new();
+            mask_bits(&mask, &mut bits);
+            let a: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos() - 0.2).collect();
+            let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
+            let (s1, d1) = masked_sum_and_dot(&a, &b, &mask);
+            let (s2, d2) = masked_sum_and_dot_bits(&a, &b, &bits);
+            assert!(same(s1, s2) && same(d1, d2), "n {n}: sum and dot");
+            // Zeroing and sum: mask_and_project with count 0 zeroes and sums without projecting.
+            let (mut v1, mut v2) = (a.clone(), a.clone());
+            mask_and_project(&mut v1, &mask, 0);
+            let sum = mask_and_sum_bits(&mut v2, &bits);
+            assert!(v1.iter().zip(&v2).all(|(x, y)| same(*x, *y)), "n {n}: zeroing");
+            let reference: f64 = v1.iter().sum();
+            assert!((sum - reference).abs() <= 1e-12, "n {n}: sum {sum} vs {reference}");
+            let (mut p1, mut u1, mut r1) = (a.clone(), b.clone(), a.iter().map(|x| x * 0.5).collect::<Vec<_>>());
+            let (mut p2, mut u2, mut r2) = (p1.clone(), u1.clone(), r1.clone());
+            let w1 = cg_update([&mut p1, &mut u1, &mut r1], &b, &a, &mask, 0.37, 0.01);
+            let w2 = cg_update_bits([&mut p2, &mut u2, &mut r2], &b, &a, &bits, 0.37, 0.01);
+            assert!(same(w1, w2), "n {n}: worst residual");
+            for (x, y) in [(&p1, &p2), (&u1, &u2), (&r1, &r2)] {
+                assert!(x.iter().zip(y).all(|(x, y)| same(*x, *y)), "n {n}: updates");
+            }
+        }
+    }
 }
