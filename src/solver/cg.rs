@@ -24,8 +24,8 @@
 
 use super::deflation::{runs, CoarseSpace, GroupCache, PairSums};
 use super::reduce::{
-    cg_update, dot2, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs, new_direction,
-    parallel, shift_gap_and_update, subtract_on_mask, sum4,
+    cg_update, dot2, fill_mask_bits, gap_and_masked_sum, mask_and_project, masked_difference, masked_sum, masked_sum_and_dot, max_abs,
+    new_direction, parallel, shift_gap_and_update, subtract_on_mask, sum4,
 };
 use super::{residual, Outcome};
 use crate::compliance::Compliance;
@@ -35,7 +35,6 @@ mod covering;
 mod mask_bits;
 
 use covering::{add_prolonged_covering, deflate_covering};
-use mask_bits::{cg_update_bits, mask_bits, masked_sum_and_dot_bits};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -506,9 +505,7 @@ impl<Op: Compliance> Context<'_, Op> {
             self.set_residual(p, count, true);
         }
         let (op, w) = (self.op, &mut *self.w);
-        if covering.is_some() {
-            mask_bits(&w.mask, &mut w.mask_bits);
-        }
+        fill_mask_bits(&w.mask, &mut w.mask_bits);
         let start_norm = max_abs(&w.residual);
         // The areal solver (no pair sums) keeps ROUGH_REDUCTION at every size.
         let reduction =
@@ -553,10 +550,7 @@ impl<Op: Compliance> Context<'_, Op> {
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
             op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            let (applied_sum, curvature) = match covering {
-                Some(_) => masked_sum_and_dot_bits(&w.direction, &w.applied_direction, &w.mask_bits),
-                None => masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask),
-            };
+            let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask_bits);
             let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {
                 break;
@@ -565,10 +559,7 @@ impl<Op: Compliance> Context<'_, Op> {
             // One pass over plain slices: p, C p and r move, off the set r stays zero; max|r| too.
             let (direction, applied) = (&w.direction[..], &w.applied_direction[..]);
             let pur = [&mut p[..], &mut w.displacement[..], &mut w.residual[..]];
-            residual_norm = match covering {
-                Some(_) => cg_update_bits(pur, direction, applied, &w.mask_bits, alpha, mean),
-                None => cg_update(pur, direction, applied, &w.mask, alpha, mean),
-            };
+            residual_norm = cg_update(pur, direction, applied, &w.mask_bits, alpha, mean);
             rho_before = rho;
             iterations += 1;
         }

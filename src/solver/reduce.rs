@@ -25,6 +25,20 @@ fn keep(x: f64, m: bool) -> f64 {
     f64::from_bits(x.to_bits() & (m as u64).wrapping_neg())
 }
 
+/// The set as 64-bit masks (all ones on it, 0 off it), for the inner iterations' passes: an AND
+/// with a stored mask stays branch-free, where LLVM turns a mask of bools back into a branch per
+/// point, mispredicted at every ragged contact edge. The values are the same, bit for bit.
+pub(crate) fn fill_mask_bits(mask: &[bool], bits: &mut Vec<u64>) {
+    bits.clear();
+    bits.extend(mask.iter().map(|&m| (m as u64).wrapping_neg()));
+}
+
+/// x on the set (`bits` all ones), else 0.0.
+#[inline(always)]
+pub(crate) fn keep_bits(x: f64, bits: u64) -> f64 {
+    f64::from_bits(x.to_bits() & bits)
+}
+
 /// Vectors at least this long are processed in parallel blocks.
 pub(crate) const PARALLEL_MIN: usize = 1 << 17;
 /// Points per block of a parallel pass (a multiple of 4, so blocks keep the four-sum pattern).
@@ -92,20 +106,24 @@ pub(crate) fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     two_sums(a, b, c, dot2_seq)
 }
 
-/// (sum of b over `mask`, a . b) in one pass: [`masked_sum`] and [`dot4`] with the same results.
-pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
-    two_sums(a, b, mask, masked_sum_and_dot_seq)
+/// (sum of b over the set, a . b) in one pass, the set as 64-bit masks ([`fill_mask_bits`]):
+/// [`masked_sum`] and [`dot4`] with the same results.
+pub(crate) fn masked_sum_and_dot(a: &[f64], b: &[f64], bits: &[u64]) -> (f64, f64) {
+    debug_assert!(a.len() == bits.len() && b.len() == bits.len(), "masks of the set's size");
+    two_sums(a, b, bits, masked_sum_and_dot_seq)
 }
 
-/// The CG update in one pass: p += alpha d, u += alpha a, r -= alpha (a - mean) on `mask` (r stays
-/// as it is off it); returns max|r| afterwards (four running maxima, as [`max_abs`]).
-pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
-    let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(mask.len());
+/// The CG update in one pass: p += alpha d, u += alpha a, r -= alpha (a - mean) on the set (64-bit
+/// masks, [`fill_mask_bits`]; r stays as it is off it); returns max|r| afterwards (four running maxima,
+/// as [`max_abs`]).
+pub(crate) fn cg_update([p, u, r]: [&mut [f64]; 3], d: &[f64], a: &[f64], bits: &[u64], alpha: f64, mean: f64) -> f64 {
+    debug_assert!([p.len(), u.len(), r.len(), d.len(), a.len()].iter().all(|&l| l == bits.len()), "masks of the set's size");
+    let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(bits.len());
     if !parallel(n) {
-        return cg_update_seq([p, u, r], d, a, mask, alpha, mean);
+        return cg_update_seq([p, u, r], d, a, bits, alpha, mean);
     }
     let outputs = p[..n].par_chunks_mut(BLOCK).zip(u[..n].par_chunks_mut(BLOCK)).zip(r[..n].par_chunks_mut(BLOCK));
-    let inputs = d[..n].par_chunks(BLOCK).zip(a[..n].par_chunks(BLOCK)).zip(mask[..n].par_chunks(BLOCK));
+    let inputs = d[..n].par_chunks(BLOCK).zip(a[..n].par_chunks(BLOCK)).zip(bits[..n].par_chunks(BLOCK));
     let worst: Vec<f64> = outputs.zip(inputs).map(|(((p, u), r), ((d, a), m))| cg_update_seq([p, u, r], d, a, m, alpha, mean)).collect();
     worst.into_iter().fold(0.0, f64::max)
 }
@@ -415,16 +433,16 @@ fn dot2_seq(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
 }
 
 wide_fn! {
-fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
-    let n = a.len().min(b.len()).min(mask.len());
-    let (a, b, mask) = (&a[..n], &b[..n], &mask[..n]);
+fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], bits: &[u64]) -> (f64, f64) {
+    let n = a.len().min(b.len()).min(bits.len());
+    let (a, b, bits) = (&a[..n], &b[..n], &bits[..n]);
     let (mut sum, mut ab) = ([0.0; 4], [0.0; 4]);
-    let (a4, b4, m4) = (a.chunks_exact(4), b.chunks_exact(4), mask.chunks_exact(4));
-    let tail_sum: f64 = b4.remainder().iter().zip(m4.remainder()).map(|(&x, &m)| if m { x } else { 0.0 }).sum();
+    let (a4, b4, m4) = (a.chunks_exact(4), b.chunks_exact(4), bits.chunks_exact(4));
+    let tail_sum: f64 = b4.remainder().iter().zip(m4.remainder()).map(|(&x, &m)| keep_bits(x, m)).sum();
     let tail_ab: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
     for ((x, y), m) in a4.zip(b4).zip(m4) {
         for k in 0..4 {
-            sum[k] += keep(y[k], m[k]);
+            sum[k] += keep_bits(y[k], m[k]);
             ab[k] += x[k] * y[k];
         }
     }
@@ -433,19 +451,19 @@ fn masked_sum_and_dot_seq(a: &[f64], b: &[f64], mask: &[bool]) -> (f64, f64) {
 }
 
 wide_fn! {
-fn cg_update_seq(pur: [&mut [f64]; 3], d: &[f64], a: &[f64], mask: &[bool], alpha: f64, mean: f64) -> f64 {
+fn cg_update_seq(pur: [&mut [f64]; 3], d: &[f64], a: &[f64], bits: &[u64], alpha: f64, mean: f64) -> f64 {
     let [p, u, r] = pur;
-    let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(mask.len());
-    let (p, u, r, d, a, mask) = (&mut p[..n], &mut u[..n], &mut r[..n], &d[..n], &a[..n], &mask[..n]);
-    let step = |pi: &mut f64, ui: &mut f64, ri: &mut f64, di: f64, ai: f64, m: bool| {
+    let n = p.len().min(u.len()).min(r.len()).min(d.len()).min(a.len()).min(bits.len());
+    let (p, u, r, d, a, bits) = (&mut p[..n], &mut u[..n], &mut r[..n], &d[..n], &a[..n], &bits[..n]);
+    let step = |pi: &mut f64, ui: &mut f64, ri: &mut f64, di: f64, ai: f64, m: u64| {
         *pi += alpha * di;
         *ui += alpha * ai;
-        *ri -= keep(alpha * (ai - mean), m);
+        *ri -= keep_bits(alpha * (ai - mean), m);
         ri.abs()
     };
     let mut worst = [0.0f64; 4];
     let (mut p4, mut u4, mut r4) = (p.chunks_exact_mut(4), u.chunks_exact_mut(4), r.chunks_exact_mut(4));
-    let (d4, a4, m4) = (d.chunks_exact(4), a.chunks_exact(4), mask.chunks_exact(4));
+    let (d4, a4, m4) = (d.chunks_exact(4), a.chunks_exact(4), bits.chunks_exact(4));
     let (dt, at, mt) = (d4.remainder(), a4.remainder(), m4.remainder());
     for ((((pc, uc), rc), (dc, ac)), mc) in (&mut p4).zip(&mut u4).zip(&mut r4).zip(d4.zip(a4)).zip(m4) {
         for k in 0..4 {

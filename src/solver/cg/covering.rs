@@ -77,7 +77,7 @@ mod tests {
             let (runs, bounds, _) = coarse.covering_groups().expect("every run kept");
             let mut w = Work::new(&op);
             w.mask.copy_from_slice(&mask);
-            crate::solver::cg::mask_bits::mask_bits(&mask, &mut w.mask_bits);
+            crate::solver::reduce::fill_mask_bits(&mask, &mut w.mask_bits);
             for (i, y) in w.preconditioned.iter_mut().enumerate() {
                 *y = ((i * 7) as f64 * 0.31).sin() + 0.4;
             }
@@ -115,7 +115,7 @@ mod tests {
                 let start: Vec<f64> = (0..n).map(|i| ((i * 7) as f64 * 0.31).sin() + 0.4).collect();
                 let mut w = Work::new(&op);
                 w.mask.copy_from_slice(&mask);
-                crate::solver::cg::mask_bits::mask_bits(&mask, &mut w.mask_bits);
+                crate::solver::reduce::fill_mask_bits(&mask, &mut w.mask_bits);
                 w.preconditioned.copy_from_slice(&start);
                 deflate_covering(&op, &mut w, &coarse, count);
                 // The masked path, as the solver takes it for sets it does not cover.
