@@ -19,11 +19,11 @@
 //! The error: for a kernel analytic off its singular offsets (the element kernels, built from
 //! logarithms and Clausen functions), Chebyshev interpolation of degree NODES - 1 converges as
 //! rho^-NODES with rho = 1 + S + sqrt((1 + S)^2 - 1) = 13.9 at S = 6. Measured (the tests), an
-//! entry is within 1e-10 of |a| |b| times the kernel's range over the offsets the pair spans
-//! (some 1e-11 of the entry for the periodic element kernel, up to 1e-10 for the finite one). A
-//! kernel that is not smooth between integers (the spectral kernel: its sharp cut-off at the
-//! Nyquist wavenumber leaves a tail alternating in sign, 1e-8 to 1e-6 off) is summed exactly: the
-//! solver passes no [`Singular`] for it. The coarse matrix only shapes the deflation: the stopping
+//! entry is within 1e-10 of the larger of itself and |a| |b| times the kernel's range over the
+//! offsets the pair spans (1e-11 to 1e-12 for the element kernels, periodic and finite). A kernel
+//! that is not smooth between integers (the spectral kernel: its sharp cut-off at the Nyquist
+//! wavenumber leaves a tail alternating in sign, 6e-10 to 1.3e-6 off on the same measure) is
+//! summed exactly: the solver passes no [`Singular`] for it. The coarse matrix only shapes the deflation: the stopping
 //! rule is tested on fresh products, so an interpolated entry changes iteration counts at most,
 //! never the answer's accuracy.
 
