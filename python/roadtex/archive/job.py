@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import platform
@@ -52,6 +53,7 @@ from roadtex.archive.store import (
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
 from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
+from roadtex.profiles.plausibility import judged_once
 
 Engine = Literal["local", "dask"]
 #: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
@@ -129,9 +131,12 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
     try:
         compute = compute_surface_run if is_surface_run(run) else compute_run
-        tables = compute(run, options, threads=threads)
-        if tables.get("example") is not None:
-            tables.update(run_stage("solve", lambda: comparison_tables(tables["example"], options.mean_pressure)))
+        # compute_run judges a line run's heights itself and refuses an implausible run: the reader,
+        # contact model, spectra and comparisons it calls on them do not judge them again
+        with judged_once() if compute is compute_run else contextlib.nullcontext():
+            tables = compute(run, options, threads=threads)
+            if tables.get("example") is not None:
+                tables.update(run_stage("solve", lambda: comparison_tables(tables["example"], options.mean_pressure)))
     except RunFailure as failure:
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=str(failure.cause), kilometres=0.0)

@@ -31,7 +31,7 @@ import polars as pl
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
 from roadtex.budget import choose_setting
 from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
-from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.plausibility import implausible_texture, judged_once
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
 
@@ -166,7 +166,7 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
             tried.add(index)
             run = runs[index]
             try:
-                with warnings.catch_warnings():
+                with warnings.catch_warnings(), judged_once():   # judged below, once
                     warnings.simplefilter("ignore", RoadtexWarning)
                     profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
             except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
@@ -212,12 +212,15 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         for spacing, read in by_dx.items():
             name = key if len(by_dx) == 1 else f"{key} @ {spacing * 1e3:g} mm"
             try:
-                choice = choose_setting(
-                    [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
-                    mean_pressure=options.mean_pressure, segment_length=options.segment_length,
-                    budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
-                    poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
-                    max_iterations=options.max_iterations, threads=threads)
+                # the pilot's runs were judged plausible by readable(): its solves and spectra do not
+                # judge them again
+                with judged_once():
+                    choice = choose_setting(
+                        [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
+                        mean_pressure=options.mean_pressure, segment_length=options.segment_length,
+                        budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
+                        poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
+                        max_iterations=options.max_iterations, threads=threads)
             except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
                 # recorded (parameters.json's plan) and warned, never dropped silently
                 failed[name] = f"{type(exc).__name__}: {exc}"

@@ -8,6 +8,9 @@ the spectra. The check looks at each row with its least-squares line removed.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 
@@ -29,6 +32,25 @@ PLAUSIBLE_MIN_RMS = 10e-6
 #: Coarsest sampling interval (m) of a texture profile: texture profilometers sample at 1 mm or
 #: finer (ISO 13473-1). Distances in mm read as metres make dx 1000 times too coarse (10 mm to 1 m).
 PLAUSIBLE_MAX_DX = 5e-3
+
+#: Set inside :func:`judged_once` (for this thread or task only).
+_JUDGED: ContextVar[bool] = ContextVar("roadtex_heights_judged", default=False)
+
+
+@contextmanager
+def judged_once() -> Iterator[None]:
+    """Within the block, in this thread (or task) only, :func:`warn_if_implausible_texture` does
+    nothing: for the bulk job, which judges each run's heights itself with
+    :func:`implausible_texture` and refuses an implausible run. The functions it then calls on that
+    run's data (the reader, the contact model, the spectra, the pilots' solves) would repeat the same
+    judgement on the same heights, or on heights derived from them, at a fifth of the job's Python
+    time. The job's own refusals are not affected: they call :func:`implausible_texture` directly.
+    """
+    token = _JUDGED.set(True)
+    try:
+        yield
+    finally:
+        _JUDGED.reset(token)
 
 
 def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment",
@@ -102,7 +124,10 @@ def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, st
                                 skip_codes: bool | None = None) -> None:
     """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
     (see :func:`implausible_texture`; ``row`` names what a row is; ``measured`` for a file read;
-    ``skip_codes`` to leave drop-out codes out); the computation goes on as given."""
+    ``skip_codes`` to leave drop-out codes out); the computation goes on as given. Silent inside
+    :func:`judged_once`."""
+    if _JUDGED.get():
+        return
     reason = implausible_texture(heights, dx, name, row=row, measured=measured, skip_codes=skip_codes)
     if reason is not None:
         warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)
