@@ -8,7 +8,7 @@ the spectra. The check looks at each row with its least-squares line removed.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
@@ -32,6 +32,13 @@ PLAUSIBLE_MIN_RMS = 10e-6
 #: Coarsest sampling interval (m) of a texture profile: texture profilometers sample at 1 mm or
 #: finer (ISO 13473-1). Distances in mm read as metres make dx 1000 times too coarse (10 mm to 1 m).
 PLAUSIBLE_MAX_DX = 5e-3
+
+#: Rows longer than two of these (m) are judged stretch by stretch, each with its own line (or
+#: median) removed: a long run's grades and vertical curves are road geometry, not texture, and
+#: over a metre they stay far below the limits (a crest whose grade changes by 4 % over 200 m rises
+#: 1 m above its chord: a correct profile of 200 m in metres would otherwise read as millimetres;
+#: over 1 m it rises 0.1 mm).
+JUDGED_STRETCH = 1.0
 
 #: Set inside :func:`judged_once` (for this thread or task only).
 _JUDGED: ContextVar[bool] = ContextVar("roadtex_heights_judged", default=False)
@@ -58,12 +65,14 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
     cannot be a road texture profile in metres, or None.
 
-    Looks at each row with its least-squares line removed; rows with NaN are judged on their valid
-    readings' spread only. With ``skip_codes`` (default: ``measured``) drop-out codes, readings far
-    outside the row's own range (:func:`~roadtex.profiles.conditioning.gross_outliers`), are left
-    out: conditioning removes them from a file before anything else. Used by every function that takes heights (a warning) and by the bulk
-    job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it also
-    refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
+    Looks at each row with its least-squares line removed (rows with NaN: their median), stretch by
+    stretch in rows longer than two :data:`JUDGED_STRETCH` (a long run's grades and vertical curves
+    are not texture); rows with NaN are judged on their valid readings' spread only. With
+    ``skip_codes`` (default: ``measured``) drop-out codes, readings far outside the row's own range
+    (:func:`~roadtex.profiles.conditioning.gross_outliers`), are left out: conditioning removes them
+    from a file before anything else. Used by every function that takes heights (a warning) and by
+    the bulk job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it
+    also refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
     a sampling too coarse for texture (dx above :data:`PLAUSIBLE_MAX_DX`: distances in mm read as
     m); the solvers and spectra, which also take model problems, check the upper limits only.
     """
@@ -86,12 +95,12 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     rows = np.where(judgeable[:, None], rows, 0.0)
     with np.errstate(all="ignore"):
         if np.isnan(rows).any():
-            centred = rows - np.nanmedian(rows, axis=1, keepdims=True)
+            centred = by_stretches(rows, dx, less_medians)
             peak_to_valley = np.nanmax(centred, axis=1) - np.nanmin(centred, axis=1)
             rms = np.sqrt(np.nanmean(centred**2, axis=1))
             median_slope = np.nanmedian(np.abs(np.diff(rows, axis=1)), axis=1) / dx
         else:
-            detrended, _ = remove_lines(rows)
+            detrended = by_stretches(rows, dx, lambda block: remove_lines(block)[0])
             peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
             rms = np.sqrt(np.mean(detrended**2, axis=1))
             median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
@@ -104,19 +113,44 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     if not bad.any():
         return None
     first = int(np.argmax(bad))
+    trend = ("linear trend removed" if n < 2 * max(2, int(round(JUDGED_STRETCH / dx)))
+             else f"linear trend removed per {JUDGED_STRETCH:g} m stretch")
     where = f"{name} ({row} {first}, {int(bad.sum())} of {bad.size} {row}s)" if rows.shape[0] > 1 else name
     if coarse and not large[first]:
         return (f"{where}: a sampling interval of {dx:.3g} m is implausibly coarse for a road texture profile "
                 f"(roadtex expects at most {PLAUSIBLE_MAX_DX:g} m; texture profilometers sample at 1 mm or finer). "
                 "Distances must be in metres: were they given in millimetres?")
     if small[first]:
-        return (f"{where}: rms height {rms[first]:.3g} m (linear trend removed) is implausibly small for a road "
+        return (f"{where}: rms height {rms[first]:.3g} m ({trend}) is implausibly small for a road "
                 f"texture profile (roadtex expects at least {PLAUSIBLE_MIN_RMS:g} m). Heights must be in metres: "
                 "were millimetres read as micrometres?")
-    return (f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m (linear trend removed) "
+    return (f"{where}: peak-to-valley {peak_to_valley[first]:.3g} m, rms {rms[first]:.3g} m ({trend}) "
             f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
             f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
             "Heights and dx must be in metres: were the heights given in millimetres?")
+
+
+def by_stretches(rows: np.ndarray, dx: float, detrend: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """``detrend`` (rows in, rows out) applied to each row of ``rows`` (heights, m) whole, or, for
+    rows longer than two :data:`JUDGED_STRETCH`, to each stretch of it: stretches of equal length,
+    the last one taking the remainder."""
+    n = rows.shape[1]
+    length = max(2, int(round(JUDGED_STRETCH / dx)))
+    stretches = n // length
+    if stretches < 2:
+        return detrend(rows)
+    head = (stretches - 1) * length   # equal stretches, then the last with the remainder
+    body = detrend(rows[:, :head].reshape(-1, length)).reshape(rows.shape[0], head)
+    return np.concatenate([body, detrend(rows[:, head:])], axis=1)
+
+
+def less_medians(rows: np.ndarray) -> np.ndarray:
+    """Each row less its median, ignoring NaN; a row of NaN only stays NaN (and never reaches
+    numpy's nan-functions, whose all-NaN warnings would need a process-wide filter)."""
+    centred = np.full_like(rows, np.nan)
+    valid = ~np.all(np.isnan(rows), axis=1)
+    centred[valid] = rows[valid] - np.nanmedian(rows[valid], axis=1, keepdims=True)
+    return centred
 
 
 def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3,
