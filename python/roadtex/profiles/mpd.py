@@ -36,6 +36,8 @@ class MpdResult:
             valid.
         profile: the resampled, despiked, filled and filtered profile the segments were cut from
             (before per-segment slope suppression).
+        unused_length: the profile's end (m) after the last whole segment, shorter than a segment,
+            which ISO 13473-1 leaves out (also stated in the profile's last history line).
         parameters: the settings used.
     """
 
@@ -47,6 +49,7 @@ class MpdResult:
     valid_fraction: float
     is_valid: bool
     profile: Profile
+    unused_length: float = 0.0
     parameters: dict[str, object] = field(default_factory=dict)
 
     @property
@@ -192,12 +195,16 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         "trim_plates": bool(trim_plates), "max_dropout_fraction": max_dropout,
         "max_spike_fraction": max_spike, "min_valid_fraction": min_valid,
     }
+    unused = (resampled.heights.size - used) * spacing
     summary = (f"mpd({', '.join(f'{k}={v}' for k, v in parameters.items())}): MPD "
-               f"{format_number(mean_depth * 1e3)} mm from {n_valid} of {n_segments} segments")
+               f"{format_number(mean_depth * 1e3)} mm from {n_valid} of {n_segments} segments"
+               + (f"; the last {format_number(unused * 1e3)} mm, less than a segment, not used" if used < resampled.heights.size
+                  else ""))
     used_profile = Profile(filled.heights, filled.positions, filled.dx, filled.metadata,
                            filled.history + (summary,))
     share_valid = n_valid / n_segments
     return MpdResult(mpd=mean_depth, etd=_ETD_OFFSET + 0.8 * mean_depth if n_valid else float("nan"),
                      std=std, segments=table, valid_segments=n_valid, valid_fraction=share_valid,
-                     is_valid=share_valid >= min_valid, profile=used_profile, parameters=parameters)
+                     is_valid=share_valid >= min_valid, profile=used_profile, unused_length=unused,
+                     parameters=parameters)
 

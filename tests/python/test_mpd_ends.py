@@ -1,4 +1,5 @@
-"""The ends of the zero-phase high-pass (ISO 13473-1's slope suppression by filter, 174.2 mm).
+"""The ends of a profile in MPD: the zero-phase high-pass (ISO 13473-1's slope suppression by
+filter, 174.2 mm), and the end shorter than a baseline that MPD leaves out.
 
 The filter settles over some three cut-off wavelengths. Extended by scipy's default odd
 reflection of 9 samples, a profile's first and last half metre came out biased: the end baselines
@@ -59,3 +60,16 @@ def test_trend_and_mirror_carries_a_line_on_and_mirrors_the_rest() -> None:
     extended = trend_and_mirror(formula(k), pad)
     assert extended.size == k.size + 2 * pad
     np.testing.assert_allclose(extended, formula(np.arange(-pad, k.size + pad, dtype=np.float64)), atol=1e-3)
+
+
+def test_mpd_states_the_end_it_leaves_out() -> None:
+    """1.03 m at 0.5 mm: ten 100 mm baselines, and the last 30 mm (less than one) is stated as
+    unused, in the result and in the profile's history; a whole number of baselines leaves none."""
+    x = DX * (np.arange(int(round(1.03 / DX))) + 0.5)
+    z = 1e-3 * np.cos(2 * np.pi * x / 0.01)
+    result = mpd(Profile.from_heights(z, DX, start=0.5 * DX), lowpass_wavelength=None)
+    assert len(result.msd) == 10
+    assert result.unused_length == pytest.approx(0.03, abs=DX)
+    assert "the last 30 mm, less than a segment, not used" in result.profile.history[-1]
+    whole = mpd(Profile.from_heights(z[:2000], DX, start=0.5 * DX), lowpass_wavelength=None)
+    assert whole.unused_length == 0.0 and "not used" not in whole.profile.history[-1]
