@@ -265,8 +265,8 @@ def pressure_texture_fits(profiles: Mapping[str, np.ndarray | Sequence[float]] |
 
     Each profile is cut into segments (each less the line through its ends) and solved at every E;
     per segment, E and band the enveloped texture level (dB re 1 um) and the pressure level (dB re
-    1 Pa) are computed (``periodic=True``), and a least-squares line pressure = slope * texture + intercept is fitted
-    per (band, E) over all segments.
+    1 Pa) are computed (``periodic=True``), and a least-squares line pressure = slope * texture +
+    intercept is fitted per (band, E) over all segments.
 
     Args:
         profiles: name -> heights (m), or one 2-D array whose rows are the segments already cut.
