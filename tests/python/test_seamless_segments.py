@@ -138,8 +138,13 @@ def test_the_job_and_its_pilot_analyse_seamless_segments(tmp_path: Path) -> None
     np.testing.assert_allclose(pilot[:, 0], pilot[:, -1], atol=1e-15)
 
 
-def test_seed_segments_are_seamless() -> None:
-    heights, _ = stepped_texture(0.5e-3)
-    segments = seed._segments(heights, 0.5e-3, SEGMENT, "heights")
-    np.testing.assert_allclose(segments[:, 0], segments[:, -1], atol=1e-15)
-    np.testing.assert_allclose(segments.mean(axis=1), 0.0, atol=1e-16)
+def test_the_seed_comparisons_analyse_seamless_segments() -> None:
+    """depth_effect's original levels (periodic, its own segments) are the hand-built texture's."""
+    dx = 0.5e-3
+    heights, wavelengths = stepped_texture(dx)
+    check = seed.depth_effect({"stepped": heights, "other": stepped_texture(dx, seed_=4)[0]}, dx, porous="stepped",
+                              dense="other", youngs_moduli=(2.5e6,), segment_length=SEGMENT)
+    original = check.data.filter(pl.col("profile") == "stepped").join(band_table(dx, SEGMENT), on="band").sort("band")
+    exact = exact_levels(original, wavelengths)
+    shortest = np.flatnonzero(np.isfinite(exact))[-3:]
+    np.testing.assert_allclose(original["original_db"].to_numpy()[shortest], exact[shortest], atol=0.2)
