@@ -81,18 +81,22 @@ def test_penetration_ranking_refuses_a_single_class():
 
 
 def test_envelopment_removes_most_of_porous_asphalts_depth_effect():
-    """Synthetic porous against dense asphalt: the porous surface's texture levels are several dB above
-    the dense one's in every band (its pores); after envelopment the excess falls by at least 3 dB
-    in every band from 10 mm down, at every E, and is gone (<= 1 dB) in most of them."""
+    """Synthetic porous against dense asphalt: the porous surface's texture levels are above the
+    dense one's in every band, by 4 to 18 dB from 16 to 2 mm (its stones and pores) and 1 to 3 dB
+    below that (the segments are seamless: their wrap step once added 4 to 8 dB there); after
+    envelopment the excess falls by at least 3 dB wherever it was over 4 dB from 10 mm down, at
+    every E, and is gone (<= 1 dB) in most bands from 10 mm down."""
     dx = 0.1e-3
     profiles = {kind: roadtex.synthetic_pavement(kind, 1.6, dx, seed=1).heights
                 for kind in ("porous_asphalt", "dense_asphalt")}
     check = cmp.depth_effect(profiles, dx, porous="porous_asphalt", dense="dense_asphalt", segment_length=0.2)
     summary = check.summary
-    assert summary["depth_effect_original_db"].min() > 3.0
+    assert summary["depth_effect_original_db"].min() > 1.0
     short = summary.filter(pl.col("centre_wavelength") <= 0.0101)
     assert short.height >= 4 * 13
-    assert short["reduction_db"].min() > 3.0
+    strong = short.filter(pl.col("depth_effect_original_db") > 4.0)
+    assert strong["band"].n_unique() >= 6
+    assert strong["reduction_db"].min() > 3.0
     assert short["removed"].mean() >= 0.8
     assert set(check.data["profile"].unique()) == {"porous_asphalt", "dense_asphalt"}
     with pytest.raises(InvalidInputError, match="porous"):

@@ -107,6 +107,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # The contact model sees each segment as one period, so the original segments are analysed
     # the same way as its (periodic) output: exact DFT band powers, no window. Differences
     # enveloped - original then come from the envelopment alone, not from a change of method.
+    # The segments are seamless (Profile.segments removes the line through each one's ends), so
+    # neither sees a step at the wrap that the texture does not have.
     method = options.band_method
     texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True, method=method))
     if not texture.bands["reported"].any():

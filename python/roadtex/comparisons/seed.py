@@ -23,7 +23,7 @@ from roadtex._checks import as_float_array, positive, to_float
 from roadtex.comparisons.figures import SEED_D_STAR, valley_penetration
 from roadtex.errors import InvalidInputError
 from roadtex.models.contact import contact_many
-from roadtex.profiles.trend import remove_lines
+from roadtex.profiles.trend import remove_end_lines
 from roadtex.spectra.analysis import band_regressions
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind
 from roadtex.spectra.levels import Method, band_levels
@@ -148,12 +148,15 @@ def _bracket(value: float, moduli: np.ndarray, medians: np.ndarray) -> tuple[flo
 # --------------------------------------------------------------------------------------------------
 
 def _segments(heights: object, dx: float, segment_length: float, name: str) -> np.ndarray:
+    """Consecutive segments of ``segment_length`` (m), each less the line through its ends (as
+    :meth:`roadtex.Profile.segments` cuts them), so the periodic model and the periodic levels of
+    the original see no step at the wrap."""
     z = as_float_array(heights, name, 1)
     points = int(round(segment_length / dx))
     count = z.size // points
     if points < 8 or count < 1:
         raise InvalidInputError(f"{name} ({z.size} points) holds no segment of {segment_length:g} m at dx {dx:g} m")
-    segments, _ = remove_lines(z[:count * points].reshape(count, points))
+    segments, _ = remove_end_lines(z[:count * points].reshape(count, points))
     return segments
 
 
@@ -181,7 +184,8 @@ def depth_effect(profiles: Mapping[str, np.ndarray | Sequence[float]], dx: float
                  tol: float = 1e-8) -> SeedCheck:
     """Seed figure 4.4: envelopment removes the "depth effect" of porous asphalt across the band range.
 
-    Each profile is cut into segments of ``segment_length`` (each detrended), every segment solved by
+    Each profile is cut into segments of ``segment_length`` (each less the line through its ends, so
+    that the periodic levels of the original see no step at the wrap), every segment solved by
     the periodic model at every E; the texture levels of the segments (``periodic=True``) and of their
     envelopes are energy-averaged over the segments of each profile. The depth effect is the porous
     profile's level minus the dense one's, before (original) and after envelopment (at the same E).
@@ -259,10 +263,10 @@ def pressure_texture_fits(profiles: Mapping[str, np.ndarray | Sequence[float]] |
     """Seed figure 4.6: for each E, a linear relation between the pressure level and the enveloped
     texture level per octave band, across segments.
 
-    Each profile is cut into segments (detrended) and solved at every E; per segment, E and band the
-    enveloped texture level (dB re 1 um) and the pressure level (dB re 1 Pa) are computed
-    (``periodic=True``), and a least-squares line pressure = slope * texture + intercept is fitted
-    per (band, E) over all segments.
+    Each profile is cut into segments (each less the line through its ends) and solved at every E;
+    per segment, E and band the enveloped texture level (dB re 1 um) and the pressure level (dB re
+    1 Pa) are computed (``periodic=True``), and a least-squares line pressure = slope * texture +
+    intercept is fitted per (band, E) over all segments.
 
     Args:
         profiles: name -> heights (m), or one 2-D array whose rows are the segments already cut.

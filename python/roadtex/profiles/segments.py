@@ -12,10 +12,14 @@ from roadtex import _core
 from roadtex._checks import finite_number, positive, whole_number
 from roadtex.errors import InvalidInputError
 from roadtex.profiles.conditioning import require_grid
-from roadtex.profiles.trend import remove_lines
+from roadtex.profiles.trend import remove_end_lines, remove_lines
 
 if TYPE_CHECKING:
     from roadtex.profiles.profile import Profile
+
+#: How a segment is detrended: ``"ends"`` (the default) the line through its first and last sample,
+#: so the periodic extension has no step at the wrap; ``"least_squares"`` its least-squares line.
+SegmentDetrend = Literal["ends", "least_squares"]
 
 
 @dataclass(frozen=True)
@@ -23,12 +27,14 @@ class Segments:
     """Equal-length segments of a uniform profile, for :func:`roadtex.contact_many`.
 
     Attributes:
-        heights: (n_segments, points_per_segment) heights (m), NaN-free, each segment's linear
-            trend removed unless ``detrend=False`` was asked.
+        heights: (n_segments, points_per_segment) heights (m), NaN-free, each segment's line
+            removed unless ``detrend=False`` was asked: by default the line through its first and
+            last sample, plus its mean, so that its ends meet (see :meth:`Profile.segments`).
         starts: (n_segments,) position of each segment's first sample (m).
         dx, length, overlap: sampling (m), segment length (m, points * dx), nominal overlap (m).
         trends: (n_segments, points_per_segment) the line removed from each segment (m; zeros
             when not detrended): ``heights + trends`` are the profile's own heights.
+        detrend: how the segments were detrended: ``"ends"``, ``"least_squares"`` or ``None``.
         start_indices: index of each segment's first sample in the profile.
         profile_positions: positions of the whole profile (m).
     """
@@ -41,6 +47,7 @@ class Segments:
     trends: np.ndarray
     start_indices: np.ndarray
     profile_positions: np.ndarray
+    detrend: SegmentDetrend | None = "ends"
 
     def __len__(self) -> int:
         return int(self.heights.shape[0])
@@ -107,8 +114,22 @@ def fft_friendly_length(n: int) -> int:
     return _core.fft_friendly_length(whole_number(n, "n", 0))
 
 
-def cut_segments(profile: Profile, length: float, overlap: float = 0.0, *, detrend: bool = True) -> Segments:
+def segment_detrend(detrend: object) -> SegmentDetrend | None:
+    """The detrend a ``detrend`` argument of :meth:`Profile.segments` names: True (the default
+    detrend) and ``"ends"`` give ``"ends"``, ``"least_squares"`` itself, False or None give None."""
+    if detrend is True:
+        return "ends"
+    if detrend is False or detrend is None:
+        return None
+    if detrend in ("ends", "least_squares"):
+        return detrend  # type: ignore[return-value]
+    raise InvalidInputError(f"detrend must be 'ends', 'least_squares', True or False, got {detrend!r}")
+
+
+def cut_segments(profile: Profile, length: float, overlap: float = 0.0, *,
+                 detrend: SegmentDetrend | bool = "ends") -> Segments:
     """Equal segments of ``length`` (m) overlapping by ``overlap`` (m); see :meth:`Profile.segments`."""
+    kind = segment_detrend(detrend)
     require_grid(profile, "segments")
     length_f = positive(length, "length")
     overlap_f = finite_number(overlap, "overlap")
@@ -129,8 +150,10 @@ def cut_segments(profile: Profile, length: float, overlap: float = 0.0, *, detre
     take = start_index[:, None] + np.arange(points)[None, :]
     heights = profile.heights[take]
     trends = np.zeros_like(heights)
-    if detrend:
+    if kind == "ends":
+        heights, trends = remove_end_lines(heights, profile.dx * np.arange(points))
+    elif kind == "least_squares":
         heights, trends = remove_lines(heights, profile.dx * np.arange(points))
     return Segments(heights=heights, starts=profile.positions[start_index], dx=profile.dx,
                     length=points * profile.dx, overlap=overlap_points * profile.dx, trends=trends,
-                    start_indices=start_index, profile_positions=profile.positions)
+                    start_indices=start_index, profile_positions=profile.positions, detrend=kind)

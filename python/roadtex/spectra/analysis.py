@@ -59,7 +59,11 @@ def level_differences(enveloped: pl.DataFrame, original: pl.DataFrame, *, level:
     Analyse both profiles the same way. For segments solved by the periodic contact model, that means
     ``periodic=True`` for the original too: the model sees the segment as one period, and its envelope
     is exactly periodic. Mixing a windowed original with a periodic envelope shifts the long bands by
-    window bias (a few dB at 12 wavelengths per segment), which is not envelopment.
+    window bias (a few dB at 12 wavelengths per segment), which is not envelopment. Cut the segments
+    seamless (:meth:`roadtex.Profile.segments` does by default: each less the line through its ends):
+    a periodic original whose ends differ has a step at every wrap, whose power (falling as 1/k^2)
+    the envelope bridges, so the difference would carry it. On synthetic porous asphalt in 0.5 m
+    least-squares segments at 0.1 mm that step read -1 to -6 dB from 1 to 0.4 mm as envelopment.
 
     Args:
         enveloped: levels of enveloped profiles; may carry extra keys such as ``youngs_modulus``.
