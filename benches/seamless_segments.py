@@ -57,10 +57,10 @@ def levels(values: np.ndarray, dx: float, periodic: bool = True, reference: floa
         return 10 * np.log10(result.mean_square.mean(axis=0) / reference**2)
 
 
-def cases(dx: float, captif: Path) -> list[tuple[str, roadtex.Profile]]:
+def cases(dx: float, captif: Path, seeds: list[int]) -> list[tuple[str, roadtex.Profile]]:
     length = 20.0 if dx >= 0.5e-3 else 10.0
-    out = [(kind, roadtex.synthetic_pavement(kind, length, dx, seed=1).conditioned())
-           for kind in ("dense_asphalt", "porous_asphalt")]
+    out = [(f"{kind}, seed {seed}", roadtex.synthetic_pavement(kind, length, dx, seed=seed).conditioned())
+           for seed in seeds for kind in ("dense_asphalt", "porous_asphalt")]
     out += [("CAPTIF " + p.stem.rsplit("_", 1)[-1], roadtex.read_profile(p).conditioned(dx=dx))
             for p in sorted(captif.glob("*.dat"))]
     return out
@@ -126,10 +126,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dx", type=float, nargs="+", default=[0.5e-3, 0.1e-3])
     parser.add_argument("--captif", type=Path, default=CAPTIF)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1], help="synthetic profiles' seeds (default 1)")
     args = parser.parse_args()
     warnings.simplefilter("ignore", roadtex.RoadtexWarning)
     for dx in args.dx:
-        for name, profile in cases(dx, args.captif):
+        for name, profile in cases(dx, args.captif, args.seeds):
             report(name, profile)
 
 
