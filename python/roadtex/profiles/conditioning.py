@@ -82,8 +82,9 @@ def road_line(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     """Tukey's resistant line through the valid readings ``z`` (m) at positions ``x`` (m, sorted):
     (slope, height at x = 0 in m). The slope joins the medians of the outer thirds, the height is
     the mean of the three thirds' median offsets, so a plate, a pothole or a run of spikes covering
-    less than half of a third moves it little; a grade or a vertical curve it follows. (0, median)
-    with fewer than three readings; (0, 0) with none."""
+    less than half of a third moves it little, while it follows a grade (and, over the half metre
+    it is fitted to, a vertical curve). (0, median) with fewer than three readings; (0, 0) with
+    none."""
     valid = ~np.isnan(z)
     xv, zv = x[valid], z[valid]
     if xv.size == 0:
@@ -158,10 +159,10 @@ def find_reference_plates(profile: Profile, *, height: float = PLATE_HEIGHT, min
     positive(height, "height", "m")
     x = profile.positions
     lo, hi, found = float(x[0]), float(x[-1]), []
-    options = {"height": height, "min_length": min_length, "min_readings": min_readings, "max_spread": max_spread,
-               "end_zone": end_zone}
-    for end in ("start", "end"):
-        for start, stop in plates_at_one_end(profile, end, **options):
+    ends: tuple[Literal["start", "end"], ...] = ("start", "end")
+    for end in ends:
+        for start, stop in plates_at_one_end(profile, end, height=height, min_length=min_length,
+                                             min_readings=min_readings, max_spread=max_spread, end_zone=end_zone):
             if end == "start":
                 lo = max(lo, float(x[min(stop, x.size - 1)]))
             else:
