@@ -65,11 +65,10 @@ def test_slope_suppression_removes_a_linear_trend():
     slope = 0.05
     base = cosine(1e-3)
     tilted = Profile.from_heights(base.heights + slope * base.positions, DX, start=0.5 * DX)
-    # trim_plates=False: the grade lifts the last 200 mm more than 20 mm above the median height,
-    # which the plate detector takes for a CAPTIF reference plate and cuts.
-    result = mpd(tilted, lowpass_wavelength=None, trim_plates=False)
+    # plates are looked for as in any run: the 5 % grade (50 mm over the metre) is not one
+    result = mpd(tilted, lowpass_wavelength=None)
     assert result.mpd == pytest.approx(sampled_crest(1e-3, 10e-3), rel=1e-9)
-    level = mpd(base, lowpass_wavelength=None, trim_plates=False).segments
+    level = mpd(base, lowpass_wavelength=None).segments
     assert len(result.segments) == len(level) == 10
     for column in ("peak_first_half", "peak_second_half", "mean_level"):
         np.testing.assert_allclose(result.segments[column], level[column], rtol=0, atol=1e-12, err_msg=column)

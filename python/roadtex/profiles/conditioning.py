@@ -4,8 +4,10 @@ bulk job's cleaning before the contact model: reference plates and spikes, found
 mean the same at any sampling interval, and counted so that nothing is removed silently.
 
 - **Reference plates** (stationary profilometers such as CAPTIF's put one at each end) are long,
-  flat stretches far above the road at an end of the run, often mostly drop-outs (the laser loses
-  the plate's top). A single high reading is never a plate.
+  flat stretches far above the road next to them, lying wholly within 0.25 m of an end of the run,
+  often mostly drop-outs (the laser loses the plate's top). The road next to them is a line
+  through the road just inside that end zone, so a grade or a vertical curve is never a plate;
+  nor is a single high reading.
 - **Spikes** are readings that depart from the median of the readings within half a millimetre
   (ISO 13473-1's 0.5 mm grid spacing) by at least ``alpha`` x 0.5 mm: on a 0.5 mm grid this flags
   the same isolated spikes as the standard's slope criterion (a jump of alpha x 0.5 mm between
@@ -57,45 +59,115 @@ def format_number(value: float) -> str:
     return f"{value:.6g}"
 
 
-#: A plate is at least this far above the road's median height (m).
+#: A plate is at least this far (m) above the road next to it (:func:`road_line`) ...
 PLATE_HEIGHT = 0.02
 #: ... spans at least this length (m), drop-outs inside it included ...
 PLATE_MIN_LENGTH = 0.01
-#: ... holds at least this many readings above PLATE_HEIGHT ...
+#: ... holds at least this many readings above the road by PLATE_HEIGHT ...
 PLATE_MIN_READINGS = 5
 #: ... whose spread about their median is at most this (m): plates are flat ...
 PLATE_MAX_SPREAD = 0.005
-#: ... and starts (ends) within this distance (m) of the run's start (end).
+#: ... and lies, both its edges, within this distance (m) of the run's start (end), and in the
+#: run's first (second) half.
 PLATE_END_ZONE = 0.25
+#: The road a plate is judged against: a resistant line through the valid readings over this
+#: length (m) next to the end zone (CAPTIF's plates lie within 0.07 m of the ends, road beyond).
+PLATE_ROAD_LENGTH = 0.5
+#: Fewer valid readings than this next to the end zone (a run shorter than about twice
+#: PLATE_END_ZONE): the line is fitted through the whole run's readings instead.
+PLATE_ROAD_MIN_READINGS = 30
+
+
+def road_line(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
+    """Tukey's resistant line through the valid readings ``z`` (m) at positions ``x`` (m, sorted):
+    (slope, height at x = 0 in m). The slope joins the medians of the outer thirds, the height is
+    the mean of the three thirds' median offsets, so a plate, a pothole or a run of spikes covering
+    less than half of a third moves it little, while it follows a grade (and, over the half metre
+    it is fitted to, a vertical curve). (0, median) with fewer than three readings; (0, 0) with
+    none."""
+    valid = ~np.isnan(z)
+    xv, zv = x[valid], z[valid]
+    if xv.size == 0:
+        return 0.0, 0.0
+    third = xv.size // 3
+    if third == 0:
+        return 0.0, float(np.median(zv))
+    parts = [slice(0, third), slice(third, xv.size - third), slice(xv.size - third, xv.size)]
+    x_med = [float(np.median(xv[part])) for part in parts]
+    z_med = [float(np.median(zv[part])) for part in parts]
+    slope = (z_med[2] - z_med[0]) / (x_med[2] - x_med[0]) if x_med[2] > x_med[0] else 0.0
+    return slope, float(np.mean([zm - slope * xm for xm, zm in zip(x_med, z_med)]))
+
+
+def plates_at_one_end(profile: Profile, end: Literal["start", "end"], *, height: float, min_length: float,
+                      min_readings: int, max_spread: float, end_zone: float) -> list[tuple[int, int]]:
+    """The reference plates at one end of the run, as index ranges [start, stop) of the whole run,
+    in position order; the criteria are :func:`find_reference_plates`'s."""
+    z, x = profile.heights, profile.positions
+    mirrored = end == "end"
+
+    def nearest(count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The ``count`` readings nearest the end: distances from it (m, increasing) and heights."""
+        if mirrored:
+            return x[-1] - x[::-1][:count], z[::-1][:count]
+        return x[:count] - x[0], z[:count]
+
+    def within(distance: float) -> int:
+        """How many readings lie within ``distance`` (m) of the end."""
+        if mirrored:
+            return x.size - int(np.searchsorted(x, x[-1] - distance, "left"))
+        return int(np.searchsorted(x, x[0] + distance, "right"))
+
+    # only the half of the run at this end: the plate, its end zone and the road just inside it
+    window = within(min(end_zone + PLATE_ROAD_LENGTH, 0.5 * (x[-1] - x[0])))
+    inward, near = nearest(window)
+    road = slice(within(end_zone), window)
+    if np.count_nonzero(~np.isnan(near[road])) >= PLATE_ROAD_MIN_READINGS:
+        slope, offset = road_line(inward[road], near[road])
+    else:       # a short run: judged against the line through all of it
+        slope, offset = road_line(*nearest(x.size))
+    high = near > slope * inward + offset + height      # NaN compares False
+    candidate = high | np.isnan(near)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], candidate.astype(np.int8), [0]])))
+    found = []
+    for start, stop in zip(edges[::2], edges[1::2]):
+        if stop == window or inward[stop - 1] > end_zone:
+            continue            # reaches beyond the end zone (or the run's middle): not at the end
+        readings = near[start:stop][high[start:stop]]
+        if readings.size < min_readings or inward[stop - 1] - inward[start] + profile.dx < min_length:
+            continue
+        if float(np.median(np.abs(readings - np.median(readings)))) * 1.4826 > max_spread:
+            continue
+        found.append((x.size - stop, x.size - start) if mirrored else (int(start), int(stop)))
+    return sorted(found)
+
 
 def find_reference_plates(profile: Profile, *, height: float = PLATE_HEIGHT, min_length: float = PLATE_MIN_LENGTH,
                           min_readings: int = PLATE_MIN_READINGS, max_spread: float = PLATE_MAX_SPREAD,
                           end_zone: float = PLATE_END_ZONE) -> tuple[float, float, list[str]]:
     """The road between the reference plates: (first kept position, last kept position, plates found).
 
-    A plate is a stretch of readings more than ``height`` (m) above the road's median, drop-outs
+    A plate is a stretch of readings more than ``height`` (m) above the road next to it, drop-outs
     inside it included, at least ``min_length`` (m) long, with at least ``min_readings`` such
-    readings spread by at most ``max_spread`` (m) about their median, lying within ``end_zone`` (m)
-    of the run's start or end. Everything from the run's end to the plate's inner edge is cut.
+    readings spread by at most ``max_spread`` (m) about their median, lying wholly (both edges)
+    within ``end_zone`` (m) of the run's start or end and in that half of the run. The road next
+    to it is the resistant line (:func:`road_line`) through the readings over
+    :data:`PLATE_ROAD_LENGTH` (m) just inside the end zone, extended over the zone: a grade or a
+    vertical curve lifts the road and the plate alike, so it is never taken for a plate. Everything
+    from the run's end to the plate's inner edge is cut.
     """
-    z, x = profile.heights, profile.positions
-    median = float(np.nanmedian(z[::7]))
-    high = z > median + positive(height, "height", "m")        # NaN compares False
-    candidate = high | np.isnan(z)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], candidate.astype(np.int8), [0]])))
+    positive(height, "height", "m")
+    x = profile.positions
     lo, hi, found = float(x[0]), float(x[-1]), []
-    for start, stop in zip(edges[::2], edges[1::2]):
-        readings = z[start:stop][high[start:stop]]
-        if readings.size < min_readings or x[stop - 1] - x[start] + profile.dx < min_length:
-            continue
-        if float(np.median(np.abs(readings - np.median(readings)))) * 1.4826 > max_spread:
-            continue
-        if x[start] - x[0] <= end_zone and x[stop - 1] < 0.5 * (x[0] + x[-1]):
-            lo = max(lo, float(x[min(stop, x.size - 1)]))
-            found.append(f"start ({format_number(float(x[start]))}..{format_number(float(x[stop - 1]))} m)")
-        elif x[-1] - x[stop - 1] <= end_zone and x[start] > 0.5 * (x[0] + x[-1]):
-            hi = min(hi, float(x[max(start - 1, 0)]))
-            found.append(f"end ({format_number(float(x[start]))}..{format_number(float(x[stop - 1]))} m)")
+    ends: tuple[Literal["start", "end"], ...] = ("start", "end")
+    for end in ends:
+        for start, stop in plates_at_one_end(profile, end, height=height, min_length=min_length,
+                                             min_readings=min_readings, max_spread=max_spread, end_zone=end_zone):
+            if end == "start":
+                lo = max(lo, float(x[min(stop, x.size - 1)]))
+            else:
+                hi = min(hi, float(x[max(start - 1, 0)]))
+            found.append(f"{end} ({format_number(float(x[start]))}..{format_number(float(x[stop - 1]))} m)")
     return lo, hi, found
 
 

@@ -149,12 +149,15 @@ class Profile:
 
         Stationary profilometers such as CAPTIF's show calibration plates far above the road at both
         ends; the road section of interest lies between them. A plate is a long, flat stretch far
-        from the road at an end of the run: readings more than ``threshold`` (m) above the median
-        height, drop-outs inside it included (the laser often loses the plate's top), at least
-        10 mm long, with at least 5 such readings spread by at most 5 mm, within 0.25 m of the
-        run's start or end (the constants ``PLATE_*`` of :mod:`roadtex.profiles.conditioning`).
-        A single high reading, or anything in the middle of the run, is never a plate: it is a
-        spike, for :meth:`remove_spikes` or :func:`roadtex.profiles.cleaning.clean`. The profile
+        from the road at an end of the run: readings more than ``threshold`` (m) above the road
+        next to it, drop-outs inside it included (the laser often loses the plate's top), at least
+        10 mm long, with at least 5 such readings spread by at most 5 mm, lying wholly (both
+        edges) within 0.25 m of the run's start or end (the constants ``PLATE_*`` of
+        :mod:`roadtex.profiles.conditioning`). The road next to it is a resistant line through the
+        road over the 0.5 m just inside that end zone, extended over the zone: a grade or a
+        vertical curve is never a plate. A single high reading, or anything further from the
+        ends, is never a plate: it is a spike, for :meth:`remove_spikes` or
+        :func:`roadtex.profiles.conditioning.clean`. The profile
         keeps what lies between the plates, moved inwards by ``margin`` (m) to drop the plate's
         edge. Without plates the profile is kept whole; the step is still recorded.
 
