@@ -89,6 +89,12 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
+    if conditioned.length < options.segment_length:
+        trimmed = f", {cleaning.trimmed_length:.3g} m of reference plates trimmed" if cleaning.trimmed_length > 0 else ""
+        raise RunFailure("segment", InvalidInputError(
+            f"{name}: the run is {conditioned.length:.4g} m long{trimmed}, shorter than one segment of "
+            f"{options.segment_length:g} m: process it with a --segment-length (ProcessingOptions.segment_length) "
+            f"of at most {conditioned.length:.4g} m, in a job of its own if the other runs keep theirs"))
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
     moduli = np.asarray(options.youngs_moduli)

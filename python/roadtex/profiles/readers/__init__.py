@@ -8,7 +8,7 @@ import numpy as np
 
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, ProfileFormatError
-from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.conditioning import format_number, missing_positions
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
@@ -133,6 +133,9 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     if positions.size < 2:
         raise ProfileFormatError(f"{name}: fewer than 2 distinct positions")
     dx_f = positive(dx, "dx") if dx is not None else nominal_dx(positions)
+    gaps = missing_positions(positions, dx_f).size
+    if gaps:
+        note += f"; {gaps} rows missing (gaps in the distances), drop-outs on the grid"
     metadata.setdefault("source", name)
     encoding_note = f", {encoding}" if encoding not in (None, "utf-8") else ""
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "

@@ -1,0 +1,202 @@
+"""More profile exports as colleagues send them, and command-line slips (the README walk of
+2026-11-23): rows dropped instead of written as drop-outs, distances rounded too coarsely, heights
+only with the spacing in a header, a run shorter than a segment, gzipped files in the survey folder,
+a hand-edited manifest, --dx in millimetres. Each is processed as the road it holds, with what was
+missing counted, or refused naming the file, the problem and what to do."""
+
+from __future__ import annotations
+
+import gzip
+import warnings
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+
+import roadtex
+from roadtex.archive.manifest import read_manifest
+from roadtex.cli import main
+from roadtex.errors import ManifestError, ProfileFormatError
+
+DX_MM = 0.5
+
+
+def road(length: float = 0.8, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Distances and heights (mm) of a synthetic dense asphalt at 0.5 mm."""
+    profile = roadtex.synthetic_pavement("dense_asphalt", length=length, dx=DX_MM * 1e-3, seed=seed)
+    return np.round(profile.positions * 1e3, 3), np.round(profile.heights * 1e3, 4)
+
+
+def csv(x: np.ndarray, z: np.ndarray) -> str:
+    return "distance (mm),height (mm)\n" + "".join(f"{a:.3f},{b:.4f}\n" for a, b in zip(x, z))
+
+
+def removed_rows(n: int, share: float, seed: int = 0) -> np.ndarray:
+    """Indices of ``share`` of the rows, the first and last kept (an export that dropped its drop-outs)."""
+    rng = np.random.default_rng(seed)
+    return np.sort(rng.choice(np.arange(1, n - 1), int(share * n), replace=False))
+
+
+def test_rows_dropped_from_the_file_keep_its_interval_and_count_as_dropouts(tmp_path: Path) -> None:
+    x, z = road()
+    gone = removed_rows(x.size, 0.15)
+    keep = np.setdiff1d(np.arange(x.size), gone)
+    (tmp_path / "full.csv").write_text(csv(x, z))
+    (tmp_path / "gaps.csv").write_text(csv(x[keep], z[keep]))
+    gaps = roadtex.read_profile(tmp_path / "gaps.csv")
+    # the interval is the device's, not the mean step over the gaps (which is 1 / 0.85 times longer)
+    assert gaps.dx == pytest.approx(DX_MM * 1e-3, rel=1e-9)
+    assert f"{gone.size} rows missing" in gaps.history[-1]
+    _, summary = roadtex.profiles.conditioning.clean(gaps, trim_plates=False, spike_alpha=None, warn=False)
+    assert summary.dropout_fraction == pytest.approx(gone.size / x.size, rel=1e-12)
+    assert "15.0 % of the readings are drop-outs" in summary.warnings[0]
+    # ISO 13473-1: a missing row is a drop-out of its baseline, as a NaN row is
+    nan_rows = z.copy()
+    nan_rows[gone] = np.nan
+    (tmp_path / "nan_rows.csv").write_text(csv(x, nan_rows).replace("nan", ""))
+    by_gaps = roadtex.mpd(gaps).segments["dropout_fraction"].to_numpy()
+    by_nans = roadtex.mpd(roadtex.read_profile(tmp_path / "nan_rows.csv")).segments["dropout_fraction"].to_numpy()
+    np.testing.assert_allclose(by_gaps, by_nans, rtol=0, atol=1e-12)
+
+    manifest = pl.DataFrame({"path": [str(tmp_path / "full.csv"), str(tmp_path / "gaps.csv")]})
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.25, error_budget_db=None)
+    roadtex.process(manifest, tmp_path / "out", options, quiet=True)
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet").sort("run_id")
+    full, gapped = runs.row(0, named=True), runs.row(1, named=True)
+    assert gapped["file_dx"] == pytest.approx(full["file_dx"], rel=1e-9) and gapped["dx_used"] == full["dx_used"]
+    assert gapped["dropout_fraction"] == pytest.approx(gone.size / x.size, rel=1e-12)
+    assert "drop-outs" in gapped["conditioning_warnings"]
+
+
+def test_positions_rounded_to_the_sampling_are_one_interval(tmp_path: Path) -> None:
+    """A 0.0375 mm device written with 3 decimals in mm (steps of 0.037 and 0.038 mm, as CAPTIF's
+    files) with rows missing: the interval is still the device's to rounding, not the median step."""
+    n, step = 8000, 0.0375
+    x = np.round(np.arange(n) * step, 3)
+    z = np.round(np.sin(2 * np.pi * x / 7.3) + 0.5 * np.cos(2 * np.pi * x / 1.9), 4)
+    gone = removed_rows(n, 0.1, seed=4)
+    keep = np.setdiff1d(np.arange(n), gone)
+    (tmp_path / "rounded_gaps.csv").write_text(csv(x[keep], z[keep]))
+    profile = roadtex.read_profile(tmp_path / "rounded_gaps.csv")
+    assert profile.dx == pytest.approx(step * 1e-3, rel=2e-4)
+    assert f"{gone.size} rows missing" in profile.history[-1]
+
+
+def test_distances_rounded_too_coarsely_are_refused_saying_so(tmp_path: Path) -> None:
+    x, z = road()
+    text = "distance (mm),height (mm)\n" + "".join(f"{a:.0f},{b:.4f}\n" for a, b in zip(x, z))   # 0.5 mm -> 1 mm
+    (tmp_path / "coarse_x.csv").write_text(text)
+    with pytest.raises(ProfileFormatError, match=r"coarse_x\.csv: .*duplicate positions.*the distances look rounded "
+                                                 r"to steps of 0\.001 m, coarser than the 0\.0005 m between readings"):
+        roadtex.read_profile(tmp_path / "coarse_x.csv")
+
+
+def test_heights_only_with_the_spacing_in_the_header_says_where_to_give_dx(tmp_path: Path) -> None:
+    _, z = road()
+    path = tmp_path / "heights.txt"
+    path.write_text("# Sample spacing: 0.5 mm\nheight (mm)\n" + "".join(f"{b:.4f}\n" for b in z))
+    with pytest.raises(ProfileFormatError, match=r"heights\.txt: no distance column .*manifest column dx or roadtex "
+                                                 r"process --input-dx\); the file's header says 'sample_spacing: 0\.5 mm'"):
+        roadtex.read_profile(path)
+    np.testing.assert_allclose(roadtex.read_profile(path, dx=DX_MM * 1e-3).heights, z * 1e-3, rtol=0, atol=1e-15)
+
+
+def test_a_run_shorter_than_a_segment_fails_naming_the_file_and_the_option(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture) -> None:
+    x, z = road(length=0.8)
+    (tmp_path / "long.csv").write_text(csv(x, z))
+    short = x < 300.0
+    (tmp_path / "short.csv").write_text(csv(x[short], z[short]))
+    pl.DataFrame({"path": ["long.csv", "short.csv"]}).write_csv(tmp_path / "manifest.csv")
+    code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--moduli", "2",
+                 "--error-budget", "off", "--quiet"])
+    assert code == 1
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["run_id"].to_list() == ["short"] and errors["stage"].to_list() == ["segment"]
+    message = errors["message"][0]
+    assert message.startswith("short.csv: the run is 0.3 m long") and "--segment-length" in message, message
+    assert "of at most 0.3 m" in message
+    assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["run_id"].to_list() == ["long"]
+
+
+def test_every_recorded_failure_names_its_file(tmp_path: Path) -> None:
+    """A failure after the read stage (here the MPD's: a run shorter than one 100 mm baseline) is
+    recorded with the file's name too, as the readers' failures are."""
+    x, z = road(length=0.8)
+    (tmp_path / "long.csv").write_text(csv(x, z))
+    tiny = x < 60.0
+    (tmp_path / "tiny.csv").write_text(csv(x[tiny], z[tiny]))
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.05, error_budget_db=None)
+    roadtex.process(read_manifest(pl.DataFrame({"path": ["long.csv", "tiny.csv"]}), base_dir=tmp_path),
+                    tmp_path / "out", options, quiet=True)
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["stage"].to_list() == ["mpd"]
+    assert errors["message"][0].startswith("tiny.csv: "), errors["message"][0]
+
+
+def test_roadtex_manifest_says_which_files_it_does_not_list(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    x, z = road()
+    survey = tmp_path / "survey"
+    survey.mkdir()
+    (survey / "plain.csv").write_text(csv(x, z))
+    with gzip.open(survey / "packed.csv.gz", "wt") as handle:
+        handle.write(csv(x, z))
+    (survey / "notes.xlsx").write_bytes(b"PK\x03\x04")
+    assert main(["manifest", str(survey), "--out", str(tmp_path / "manifest.csv")]) == 0
+    said = capsys.readouterr()
+    assert "1 runs" in said.out and pl.read_csv(tmp_path / "manifest.csv").height == 1
+    assert "2 file(s) of the folder are not listed" in said.err
+    assert "packed.csv.gz: compressed (.gz)" in said.err and "decompress it" in said.err
+    assert "notes.xlsx: suffix '.xlsx'" in said.err
+    # a folder of gzipped files alone: refused, saying what is there
+    (survey / "plain.csv").unlink()
+    assert main(["manifest", str(survey), "--out", str(tmp_path / "again.csv")]) == 2
+    assert "not listed: notes.xlsx" in capsys.readouterr().err
+
+
+def test_a_hand_edited_manifest_is_refused_with_what_was_meant(tmp_path: Path) -> None:
+    x, z = road()
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "a.csv").write_text(csv(x, z))
+    kept = tmp_path / "manifests"
+    kept.mkdir()
+    # paths written from the current folder, the manifest kept in another
+    pl.DataFrame({"path": ["data/a.csv"]}).write_csv(kept / "relative.csv")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(tmp_path)
+        with pytest.raises(ManifestError, match=r"relative paths are taken from the manifest's folder, .*manifests "
+                                                r"\(data/a\.csv is a file from the current folder"):
+            read_manifest(kept / "relative.csv")
+    pl.DataFrame({"path": ["data/a.csv"], "hieght_unit": ["mm"]}).write_csv(tmp_path / "typo.csv")
+    with pytest.raises(ManifestError, match=r"'hieght_unit': did you mean 'height_unit'\?"):
+        read_manifest(tmp_path / "typo.csv")
+    pl.DataFrame({"path": ["data/a.csv"], "youngs_modulus": [2e6]}).write_csv(tmp_path / "modulus.csv")
+    with pytest.raises(ManifestError, match=r"'youngs_modulus' is a job option, not a manifest column: "
+                                            r"roadtex process --moduli"):
+        read_manifest(tmp_path / "modulus.csv")
+
+
+@pytest.mark.parametrize("flag", ["--dx", "--input-dx"])
+def test_an_interval_given_in_millimetres_is_refused_before_any_work(tmp_path: Path, flag: str,
+                                                                    capsys: pytest.CaptureFixture) -> None:
+    x, z = road()
+    (tmp_path / "a.csv").write_text(csv(x, z))
+    pl.DataFrame({"path": ["a.csv"]}).write_csv(tmp_path / "manifest.csv")
+    code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), flag, "0.5"])
+    assert code == 2 and not (tmp_path / "out" / "runs.parquet").exists()
+    assert f"{flag} 0.5 m is coarser than any texture profile's sampling" in capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--dx", "1e-3",
+                     "--moduli", "2", "--error-budget", "off", "--quiet"])
+    assert code == 0
+
+
+def test_a_job_with_no_run_done_states_no_sampling_interval(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    (tmp_path / "bad.csv").write_text("distance (mm),height (mm)\n0,1\n0.5,2\nEnd of data\n")
+    pl.DataFrame({"path": ["bad.csv"]}).write_csv(tmp_path / "manifest.csv")
+    assert main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--quiet"]) == 1
+    said = capsys.readouterr().out
+    assert "0 processed" in said and " at dx " not in said, said
