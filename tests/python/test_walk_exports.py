@@ -200,3 +200,28 @@ def test_a_job_with_no_run_done_states_no_sampling_interval(tmp_path: Path, caps
     assert main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--quiet"]) == 1
     said = capsys.readouterr().out
     assert "0 processed" in said and " at dx " not in said, said
+
+
+def test_the_job_refuses_a_unit_mistake_saying_what_to_correct_and_never_computing_as_given(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    x, z = road()
+    (tmp_path / "good.csv").write_text(csv(x, z))
+    (tmp_path / "heights.txt").write_text("height (mm)\n" + "".join(f"{b:.4f}\n" for b in z))
+    # a header that states the wrong unit: heights in mm said to be metres
+    (tmp_path / "said_m.csv").write_text(csv(x, z).replace("height (mm)", "height (m)"))
+    assert main(["manifest", str(tmp_path), "--out", str(tmp_path / "manifest.csv")]) == 0   # prints its warnings
+    said = capsys.readouterr().err
+    assert "said_m.csv: peak-to-valley" in said and "roadtex process refuses it" in said, said
+    assert "Computing as given" not in said
+    # the colleague's dx, 0.5 (mm), written into the manifest as it was said
+    table = pl.read_csv(tmp_path / "manifest.csv").with_columns(
+        pl.when(pl.col("run_id") == "heights").then(0.5).otherwise(None).alias("dx"))
+    table.write_csv(tmp_path / "manifest.csv")
+    assert main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--moduli", "2",
+                 "--error-budget", "off", "--quiet"]) == 1
+    assert "Computing as given" not in capsys.readouterr().err
+    errors = dict(pl.read_parquet(tmp_path / "out" / "errors.parquet").select("run_id", "message").iter_rows())
+    assert sorted(errors) == ["heights", "said_m"]
+    assert "The interval dx = 0.5 given for it (manifest column dx, --input-dx) must be in metres" in errors["heights"]
+    assert "a unit its header states wrongly must be corrected in the file" in errors["said_m"]
+    assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["run_id"].to_list() == ["good"]

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import difflib
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
-from roadtex.errors import ManifestError
-from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.errors import ImplausibleTextureWarning, ManifestError
+from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.readers import file_head, guess_format, read_profile_unjudged
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
@@ -219,16 +221,25 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
         if surface:
             row["format"] = "surface"
         if read_metadata:
+            implausible = None
             try:
                 if surface:
                     metadata = read_surface(path).metadata
                 else:
-                    metadata = read_profile(path).metadata
+                    profile = read_profile_unjudged(path)
+                    metadata = profile.metadata
                     # the format the file was read as, so that runs.parquet says it (its metadata's
                     # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
                     row["format"] = guess_format(path, file_head(path))
+                    implausible = implausible_texture(profile.heights, profile.dx, path.name)
             except Exception:  # listed anyway: the job records why it fails
                 metadata = {}
+            if implausible is not None:
+                # what the job will do with it (refuse it), not the reader's "computing as given"
+                warnings.warn(f"{implausible} roadtex process refuses it unless its manifest row gives the units "
+                              "its header lacks (distance_unit, height_unit; a wrong unit in the header must be "
+                              "corrected in the file) or, for heights only, dx in metres",
+                              ImplausibleTextureWarning, stacklevel=2)
             for name in METADATA_COLUMNS:
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata[name]

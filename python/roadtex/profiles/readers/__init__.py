@@ -90,26 +90,45 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
             usable distance or height column or an unknown unit, holds only drop-outs, or has
             duplicate positions with conflicting heights (the message names the problem).
     """
+    file, name, fmt = opened(path, format, options)
+    try:
+        return read_as(file, name, fmt, options)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        raise named(exc, name) from None
+
+
+def read_profile_unjudged(path: str | Path, format: str | None = None, **options: object) -> Profile:
+    """:func:`read_profile` without its warning about heights that cannot be a road texture in the
+    unit read (:class:`~roadtex.errors.ImplausibleTextureWarning`): for a caller that judges them
+    and refuses the file itself (the bulk job, whose refusal says why). Same arguments, result
+    and errors as :func:`read_profile`; positions and heights in m."""
+    file, name, fmt = opened(path, format, options)
+    try:
+        return read_as(file, name, fmt, options, judge=False)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        raise named(exc, name) from None
+
+
+def opened(path: str | Path, format: str | None, options: dict[str, object]) -> tuple[Path, str, str]:
+    """The file, its name and its format (given, else guessed), the options checked."""
     file = Path(path)
-    name = file.name
     unknown = set(options) - set(READ_OPTIONS)
     if unknown:
         raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
     if format is not None and format not in FORMATS:
         raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
     head = file_head(file)
-    fmt = format or guess_format(file, head)
-    try:
-        return read_as(file, name, fmt, options)
-    except (ProfileFormatError, InvalidInputError) as exc:
-        # every message names the file, whichever helper raised it
-        if str(exc).startswith(name):
-            raise
-        raise type(exc)(f"{name}: {exc}") from None
+    return file, file.name, format or guess_format(file, head)
 
 
-def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Profile:
-    """Reads ``file`` in format ``fmt``; see :func:`read_profile`."""
+def named(exc: ProfileFormatError | InvalidInputError, name: str) -> ProfileFormatError | InvalidInputError:
+    """``exc`` with a message that names the file, whichever helper raised it."""
+    return exc if str(exc).startswith(name) else type(exc)(f"{name}: {exc}")
+
+
+def read_as(file: Path, name: str, fmt: str, options: dict[str, object], *, judge: bool = True) -> Profile:
+    """Reads ``file`` in format ``fmt``; see :func:`read_profile` (``judge``: warn about heights
+    that cannot be a road texture in the unit read)."""
     if fmt == "npy":
         positions, heights, metadata, history, dx = read_npy(file, name, options)
         encoding = None
@@ -141,8 +160,9 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
     profile = Profile(heights, positions, dx_f, metadata, tuple(history))
-    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
+    if judge:
+        warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile", "read_profile_unjudged"]
