@@ -236,7 +236,8 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     reading.add_argument("--decimal", default=None, choices=[".", ","],
                          help="decimal mark of text files (default: sniffed; ',' for European exports)")
     reading.add_argument("--input-dx", type=float, default=None, metavar="M",
-                         help="sampling interval in m of heights-only files (.npy, one-column text)")
+                         help="sampling interval in m of heights-only files (.npy, one-column text); files with "
+                              "distances keep their own")
     parser.add_argument("--keep-profiles", action="store_true",
                         help="also write the enveloped profiles and pressures (large)")
     parser.add_argument("--engine", choices=["local", "dask"], default="local",

@@ -225,3 +225,29 @@ def test_the_job_refuses_a_unit_mistake_saying_what_to_correct_and_never_computi
     assert "The interval dx = 0.5 given for it (manifest column dx, --input-dx) must be in metres" in errors["heights"]
     assert "a unit its header states wrongly must be corrected in the file" in errors["said_m"]
     assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["run_id"].to_list() == ["good"]
+
+
+def test_input_dx_for_heights_only_files_never_redefines_a_file_with_distances(tmp_path: Path) -> None:
+    """--input-dx (reader_defaults dx) is the interval of heights-only files. A file with its own
+    distances (0.25 mm here) keeps them: it is neither read nor solved at 0.5 mm."""
+    fine = roadtex.synthetic_pavement("dense_asphalt", length=0.8, dx=0.25e-3, seed=6)
+    (tmp_path / "distances.csv").write_text(csv(np.round(fine.positions * 1e3, 3), np.round(fine.heights * 1e3, 4)))
+    _, z = road()
+    np.save(tmp_path / "heights.npy", z * 1e-3)
+    from roadtex.errors import UnitConflictWarning
+
+    with pytest.warns(UnitConflictWarning, match=r"distances\.csv: its distances are 0\.00025 m apart; the dx 0\.0005 m "
+                                                 r"given is ignored"):
+        assert roadtex.read_profile(tmp_path / "distances.csv", dx=0.5e-3).dx == pytest.approx(0.25e-3, rel=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnitConflictWarning)   # heights only: the dx given is theirs, no conflict
+        assert roadtex.read_profile(tmp_path / "heights.npy", dx=0.5e-3).dx == 0.5e-3
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), error_budget_db=None, segment_length=0.25,
+                                        reader_defaults={"dx": 0.5e-3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnitConflictWarning)
+        roadtex.process(roadtex.build_manifest(tmp_path), tmp_path / "out", options, quiet=True)
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet").sort("run_id")
+    assert runs["run_id"].to_list() == ["distances", "heights"]
+    assert runs["file_dx"].to_list() == pytest.approx([0.25e-3, 0.5e-3], rel=1e-9)
+    assert runs["dx_used"].to_list() == pytest.approx([0.25e-3, 0.25e-3], rel=1e-9)

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from roadtex._checks import positive
-from roadtex.errors import InvalidInputError, ProfileFormatError
+from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number, missing_positions
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
@@ -17,6 +18,9 @@ from roadtex.profiles.readers.npy import read_npy
 from roadtex.profiles.readers.parquet import read_parquet
 from roadtex.profiles.readers.text import decode_text, nominal_dx, sorted_samples
 
+#: A dx given for a file with distances that differs from their interval by more than this share
+#: is ignored, with a warning: the file's distances are kept.
+DX_CONFLICT = 0.01
 #: Formats :func:`read_profile` reads.
 FORMATS = ("captif", "csv", "npy", "parquet")
 #: The options :func:`read_profile` takes, with their types (the bulk job's manifest columns of
@@ -77,7 +81,8 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
 
     Options: ``distance_column``, ``height_column`` (name or index), ``distance_unit``,
     ``height_unit`` (``"m"``, ``"mm"``, ``"um"``, ...), ``dx`` (m, for heights-only data; also the
-    nominal dx to record), ``start`` (m, first position for heights-only data), ``delimiter``,
+    nominal dx to record, within 1 % of the interval of a file's own distances: one further off is
+    ignored with a :class:`~roadtex.errors.UnitConflictWarning`), ``start`` (m, first position for heights-only data), ``delimiter``,
     ``decimal`` (``"."`` or ``","``; a decimal comma is recognised in ``;``- or tab-separated
     files when every comma in the first rows sits inside a number), ``encoding`` (text files;
     UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
@@ -151,7 +156,16 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object], *, judg
     positions, heights, note = sorted_samples(positions, heights, name)
     if positions.size < 2:
         raise ProfileFormatError(f"{name}: fewer than 2 distinct positions")
-    dx_f = positive(dx, "dx") if dx is not None else nominal_dx(positions)
+    own = nominal_dx(positions)
+    # (only a dx the caller gave: one stored by write_profile reads back as written)
+    if options.get("dx") is not None and dx is not None and abs(positive(dx, "dx") - own) > DX_CONFLICT * own:
+        # A job-wide --input-dx is for heights-only files: it must not redefine the interval of a
+        # file whose distances state their own (the job would resample it at the wrong grid).
+        warnings.warn(f"{name}: its distances are {own:.4g} m apart; the dx {dx:g} m given is ignored for it (a given "
+                      "dx is the interval of heights-only files; a file's own distances are kept)",
+                      UnitConflictWarning, stacklevel=3)   # the caller of read_profile
+        dx = None
+    dx_f = positive(dx, "dx") if dx is not None else own
     gaps = missing_positions(positions, dx_f).size
     if gaps:
         note += f"; {gaps} rows missing (gaps in the distances), drop-outs on the grid"
