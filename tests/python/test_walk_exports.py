@@ -200,6 +200,10 @@ def test_a_job_with_no_run_done_states_no_sampling_interval(tmp_path: Path, caps
     assert main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), "--quiet"]) == 1
     said = capsys.readouterr().out
     assert "0 processed" in said and " at dx " not in said, said
+    # nothing to draw: the report says why each run failed, not only that they did
+    assert main(["report", str(tmp_path / "out")]) == 2
+    said = capsys.readouterr().err
+    assert "every run failed" in said and "bad (read): bad.csv: cannot read the numbers" in said, said
 
 
 def test_the_job_refuses_a_unit_mistake_saying_what_to_correct_and_never_computing_as_given(
