@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -39,7 +40,15 @@ def process_command(args: argparse.Namespace) -> int:
     from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
 
     if args.quiet:
-        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+        # roadtex's one line per run, on a handler of its own: a root handler would also print the
+        # INFO lines of other libraries (Dask's scheduler and workers, some 40 per job)
+        log = logging.getLogger("roadtex")
+        log.setLevel(logging.INFO)
+        if not any(getattr(h, "roadtex_quiet", False) for h in log.handlers):
+            handler = logging.StreamHandler()
+            handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(message)s"))
+            handler.roadtex_quiet = True  # type: ignore[attr-defined]
+            log.addHandler(handler)
     if not args.allow_implausible:
         checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
         checks.append(("--pressure", args.pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
@@ -119,13 +128,16 @@ def upsampled_runs(runs_table: Path | None) -> str | None:
 
 
 def error_budget(text: str) -> float | None:
-    """--error-budget: a number of dB, or 'off'."""
+    """--error-budget: a positive number of dB, or 'off'."""
     if text.strip().lower() in ("off", "none", "no"):
         return None
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
-        raise ValueError(f"--error-budget must be a number of dB or 'off', got {text!r}") from None
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"--error-budget must be a positive number of dB (e.g. 0.2) or 'off', got {text!r}")
+    return value
 
 
 def manifest_command(args: argparse.Namespace) -> int:

@@ -255,3 +255,34 @@ def test_input_dx_for_heights_only_files_never_redefines_a_file_with_distances(t
     assert runs["run_id"].to_list() == ["distances", "heights"]
     assert runs["file_dx"].to_list() == pytest.approx([0.25e-3, 0.5e-3], rel=1e-9)
     assert runs["dx_used"].to_list() == pytest.approx([0.25e-3, 0.25e-3], rel=1e-9)
+
+
+def test_quiet_prints_one_line_per_run_and_not_the_dask_clusters_log(tmp_path: Path) -> None:
+    """--quiet --engine dask, as the README's table offers them together: roadtex's line per run,
+    not the local cluster's some forty INFO lines (scheduler, nannies, workers)."""
+    pytest.importorskip("distributed")
+    import subprocess
+    import sys
+
+    x, z = road(length=0.6)
+    for name in ("a.csv", "b.csv"):
+        (tmp_path / name).write_text(csv(x, z))
+    pl.DataFrame({"path": ["a.csv", "b.csv"]}).write_csv(tmp_path / "manifest.csv")
+    done = subprocess.run([str(Path(sys.executable).parent / "roadtex"), "process", "manifest.csv", "--out", "out",
+                           "--moduli", "2", "--error-budget", "off", "--engine", "dask", "--workers", "1", "--quiet"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stderr.splitlines()
+    assert sum(" roadtex.archive run " in line for line in lines) == 2, done.stderr
+    assert not [line for line in lines if " distributed." in line], done.stderr
+
+
+@pytest.mark.parametrize("value", ["-1", "0", "nan", "inf", "0.2dB", "nonsense"])
+def test_a_nonsense_error_budget_is_refused_naming_the_flag(tmp_path: Path, value: str,
+                                                            capsys: pytest.CaptureFixture) -> None:
+    x, z = road(length=0.6)
+    (tmp_path / "a.csv").write_text(csv(x, z))
+    pl.DataFrame({"path": ["a.csv"]}).write_csv(tmp_path / "manifest.csv")
+    code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), f"--error-budget={value}"])
+    assert code == 2 and not (tmp_path / "out" / "runs.parquet").exists()
+    assert f"--error-budget must be a positive number of dB (e.g. 0.2) or 'off', got {value!r}" in capsys.readouterr().err
