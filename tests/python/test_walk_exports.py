@@ -286,3 +286,25 @@ def test_a_nonsense_error_budget_is_refused_naming_the_flag(tmp_path: Path, valu
     code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / "out"), f"--error-budget={value}"])
     assert code == 2 and not (tmp_path / "out" / "runs.parquet").exists()
     assert f"--error-budget must be a positive number of dB (e.g. 0.2) or 'off', got {value!r}" in capsys.readouterr().err
+
+
+def test_a_dx_given_for_heights_only_files_does_not_refuse_a_surface_table_with_positions(tmp_path: Path) -> None:
+    """A surface as a long table of x, y, z (mm) on a 0.5 mm grid, read with dx = 0.25 mm given (the
+    job's --input-dx meant for heights-only files): its positions' own grid is kept, with a warning."""
+    surface = roadtex.synthetic_surface("dense_asphalt", length=0.1, width=0.01, dx=0.5e-3, seed=2)
+    ny, nx = surface.heights.shape
+    x, y = np.meshgrid(np.arange(nx) * 0.5, np.arange(ny) * 0.5)
+    rows = "".join(f"{a:.3f},{b:.3f},{c * 1e3:.5f}\n" for a, b, c in zip(x.ravel(), y.ravel(), surface.heights.ravel()))
+    (tmp_path / "scan.csv").write_text("x (mm),y (mm),z (mm)\n" + rows)
+    from roadtex.errors import UnitConflictWarning
+
+    with pytest.warns(UnitConflictWarning, match=r"scan\.csv: its x positions are 0\.0005 m apart; the dx 0\.00025 m "
+                                                 r"given is ignored") as caught:
+        read = roadtex.read_surface(tmp_path / "scan.csv", dx=0.25e-3)
+    assert caught[0].filename == __file__
+    assert read.dx == pytest.approx(0.5e-3, rel=1e-9) and read.heights.shape == (ny, nx)
+    np.testing.assert_allclose(read.heights, np.round(surface.heights * 1e3, 5) * 1e-3, rtol=0, atol=1e-12)
+    # positions off any grid are still refused
+    (tmp_path / "scattered.csv").write_text("x (mm),y (mm),z (mm)\n0,0,1\n0.5,0,2\n1.3,0,1\n0,0.5,1\n0.5,0.5,2\n1.3,0.5,1\n")
+    with pytest.raises(ProfileFormatError, match=r"scattered\.csv: not a regular grid"):
+        roadtex.read_surface(tmp_path / "scattered.csv", dx=0.25e-3)
