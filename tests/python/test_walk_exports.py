@@ -308,3 +308,19 @@ def test_a_dx_given_for_heights_only_files_does_not_refuse_a_surface_table_with_
     (tmp_path / "scattered.csv").write_text("x (mm),y (mm),z (mm)\n0,0,1\n0.5,0,2\n1.3,0,1\n0,0.5,1\n0.5,0.5,2\n1.3,0.5,1\n")
     with pytest.raises(ProfileFormatError, match=r"scattered\.csv: not a regular grid"):
         roadtex.read_surface(tmp_path / "scattered.csv", dx=0.25e-3)
+
+
+@pytest.mark.parametrize("excel", [True, False], ids=["sep-line", "semicolons"])
+def test_a_manifest_saved_by_a_european_spreadsheet_is_read_as_written(tmp_path: Path, excel: bool) -> None:
+    """Semicolons, Excel's sep= line, a byte-order mark, Windows line ends and decimal commas in the
+    numeric columns (speed_kmh, dx): the same runs, reader options and metadata as a plain CSV."""
+    x, z = road(length=0.6)
+    (tmp_path / "a.csv").write_text(csv(x, z))
+    np.save(tmp_path / "b.npy", z * 1e-3)
+    text = ("sep=;\n" if excel else "") + "path;run_id;dx;speed_kmh;site\na.csv;a;;80,5;A1, km 12\nb.npy;b;0,0005;50;B2\n"
+    (tmp_path / "manifest.csv").write_bytes(("\ufeff" + text).replace("\n", "\r\n").encode("utf-8"))
+    manifest = read_manifest(tmp_path / "manifest.csv")
+    assert manifest["run_id"].to_list() == ["a", "b"]
+    assert manifest["speed_kmh"].to_list() == [80.5, 50.0] and manifest["dx"].to_list() == [None, 0.0005]
+    assert manifest["site"].to_list() == ["A1, km 12", "B2"]
+    assert [Path(p).name for p in manifest["path"]] == ["a.csv", "b.npy"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import io
 import os
 import warnings
 from pathlib import Path
@@ -85,8 +86,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             if not text:
                 table = pl.read_parquet(manifest_path)
             else:
-                separator = "\t" if manifest_path.suffix.lower() in (".tsv", ".tab") else ","
-                table = pl.read_csv(manifest_path, separator=separator, infer_schema=False)
+                table = read_text_manifest(manifest_path)
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
@@ -166,6 +166,37 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
         seen[rid] = index
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
+
+
+def read_text_manifest(path: Path) -> pl.DataFrame:
+    """A CSV or TSV manifest as strings, as spreadsheets save it: comma, tab or (European Excel)
+    semicolon separated, Excel's ``sep=;`` line, a byte-order mark. With semicolons, a decimal
+    comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
+    point: every number is then read as written."""
+    raw = path.read_bytes()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    lines = raw.split(b"\n", 2)
+    first = lines[0].strip()
+    hint = first.lower().startswith(b"sep=") and len(first) == 5
+    if hint:
+        raw = raw[len(lines[0]) + 1:]
+        header = lines[1] if len(lines) > 1 else b""
+    else:
+        header = lines[0]
+    if hint:
+        separator = first[4:5].decode("latin-1")
+    elif path.suffix.lower() in (".tsv", ".tab") or (b"\t" in header and b"," not in header):
+        separator = "\t"
+    elif b";" in header and b"," not in header:
+        separator = ";"
+    else:
+        separator = ","
+    table = pl.read_csv(io.BytesIO(raw), separator=separator, infer_schema=False)
+    if separator == ";":
+        numeric = [c for c in table.columns if c in ("speed_kmh", "dx", "dy", "start") or c.startswith(NOISE_PREFIX)]
+        table = table.with_columns(pl.col(c).str.replace(",", ".", literal=True) for c in numeric)
+    return table
 
 
 #: Manifest columns users write for what is a job option, not a per-run column.
