@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import sys
 from pathlib import Path
@@ -29,9 +30,21 @@ def report_command(args: argparse.Namespace) -> int:
     return 0
 
 
+class CurrentStderrHandler(logging.StreamHandler):
+    """A log handler that writes to whatever ``sys.stderr`` is when a record comes (``main`` may be
+    called again in one process with stderr replaced, as tests do)."""
+
+    @property  # type: ignore[override]
+    def stream(self) -> object:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: object) -> None:
+        pass
+
+
 def process_command(args: argparse.Namespace) -> int:
     """``roadtex process MANIFEST --out DIR``: the bulk job."""
-    import logging
     import warnings
 
     from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
@@ -44,10 +57,9 @@ def process_command(args: argparse.Namespace) -> int:
         # INFO lines of other libraries (Dask's scheduler and workers, some 40 per job)
         log = logging.getLogger("roadtex")
         log.setLevel(logging.INFO)
-        if not any(getattr(h, "roadtex_quiet", False) for h in log.handlers):
-            handler = logging.StreamHandler()
+        if not any(isinstance(h, CurrentStderrHandler) for h in log.handlers):
+            handler = CurrentStderrHandler()
             handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(message)s"))
-            handler.roadtex_quiet = True  # type: ignore[attr-defined]
             log.addHandler(handler)
     if not args.allow_implausible:
         checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
