@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import logging
+import math
 import sys
 from pathlib import Path
 
@@ -28,17 +30,37 @@ def report_command(args: argparse.Namespace) -> int:
     return 0
 
 
+class CurrentStderrHandler(logging.StreamHandler):
+    """A log handler that writes to whatever ``sys.stderr`` is when a record comes (``main`` may be
+    called again in one process with stderr replaced, as tests do)."""
+
+    @property  # type: ignore[override]
+    def stream(self) -> object:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: object) -> None:
+        pass
+
+
 def process_command(args: argparse.Namespace) -> int:
     """``roadtex process MANIFEST --out DIR``: the bulk job."""
-    import logging
     import warnings
 
     from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
     from roadtex.errors import ImplausibleParameterWarning, MissingDependencyError
+    from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
 
     if args.quiet:
-        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+        # roadtex's one line per run, on a handler of its own: a root handler would also print the
+        # INFO lines of other libraries (Dask's scheduler and workers, some 40 per job)
+        log = logging.getLogger("roadtex")
+        log.setLevel(logging.INFO)
+        if not any(isinstance(h, CurrentStderrHandler) for h in log.handlers):
+            handler = CurrentStderrHandler()
+            handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(message)s"))
+            log.addHandler(handler)
     if not args.allow_implausible:
         checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
         checks.append(("--pressure", args.pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
@@ -48,7 +70,13 @@ def process_command(args: argparse.Namespace) -> int:
             print(f"roadtex process: error: {flag} {value:g} MPa is outside the plausible range of {what} "
                   f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2); "
                   "--allow-implausible solves it anyway.", file=sys.stderr)
-        if refused:
+        coarse = [(flag, value) for flag, value in (("--dx", args.dx), ("--input-dx", args.input_dx))
+                  if value is not None and value > PLAUSIBLE_MAX_DX]
+        for flag, value in coarse:
+            print(f"roadtex process: error: {flag} {value:g} m is coarser than any texture profile's sampling (at "
+                  f"most {PLAUSIBLE_MAX_DX:g} m). {flag} is in metres (e.g. {flag} 0.5e-3 for 0.5 mm); "
+                  "--allow-implausible solves it anyway.", file=sys.stderr)
+        if refused or coarse:
             return 2
     reader_defaults = {"distance_unit": args.distance_unit, "height_unit": args.height_unit,
                        "delimiter": args.delimiter, "decimal": args.decimal, "dx": args.input_dx}
@@ -112,18 +140,22 @@ def upsampled_runs(runs_table: Path | None) -> str | None:
 
 
 def error_budget(text: str) -> float | None:
-    """--error-budget: a number of dB, or 'off'."""
+    """--error-budget: a positive number of dB, or 'off'."""
     if text.strip().lower() in ("off", "none", "no"):
         return None
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
-        raise ValueError(f"--error-budget must be a number of dB or 'off', got {text!r}") from None
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"--error-budget must be a positive number of dB (e.g. 0.2) or 'off', got {text!r}")
+    return value
 
 
 def manifest_command(args: argparse.Namespace) -> int:
     """``roadtex manifest FOLDER --out manifest.csv``: lists a folder's profile files as a manifest."""
     from roadtex.archive import ManifestError, build_manifest
+    from roadtex.archive.manifest import unlisted_files
 
     try:
         table = build_manifest(args.folder, recursive=not args.no_recursive)
@@ -132,6 +164,13 @@ def manifest_command(args: argparse.Namespace) -> int:
         return 2
     table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
+    skipped = unlisted_files(args.folder, recursive=not args.no_recursive)
+    if skipped:
+        print(f"roadtex manifest: warning: {len(skipped)} file(s) of the folder are not listed:", file=sys.stderr)
+        for note in skipped[:10]:
+            print(f"  {note}", file=sys.stderr)
+        if len(skipped) > 10:
+            print(f"  ... and {len(skipped) - 10} more", file=sys.stderr)
     surfaces = sum(fmt == "surface" for fmt in table["format"])
     if surfaces:
         print(f"roadtex manifest: {surfaces} of them 3-D surfaces (format 'surface'; dx, dy in m and units as "
@@ -181,7 +220,8 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"mean contact pressure P in MPa (default {defaults.mean_pressure / 1e6:g}; "
                              "outside 0.02 to 3 MPa refused unless --allow-implausible)")
     parser.add_argument("--allow-implausible", action="store_true",
-                        help="solve for E and P outside the plausible ranges (they are usually unit mistakes)")
+                        help="solve for E and P outside the plausible ranges, and --dx, --input-dx above 5 mm "
+                             "(they are usually unit mistakes)")
     parser.add_argument("--poisson", type=float, default=defaults.poisson, help="rubber Poisson ratio (default 0.5)")
     parser.add_argument("--segment-length", type=float, default=defaults.segment_length, metavar="M",
                         help="segment length in m for the periodic contact model (default 0.5)")
@@ -189,7 +229,7 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                         help="overlap of consecutive segments in m (default 0)")
     parser.add_argument("--dx", type=float, default=None, metavar="M",
                         help="solve every run at this sampling interval in m (default: one interval for the "
-                             "whole job, the finest among the runs)")
+                             "whole job, the finest among the runs; above 5 mm refused unless --allow-implausible)")
     parser.add_argument("--spike-alpha", type=float, default=defaults.spike_alpha,
                         help="spike criterion before contact and spectra: a reading alpha x 0.5 mm from the median "
                              "within 0.5 mm is a spike (default 3, ISO 13473-1's alpha; 0 turns it off)")
@@ -220,7 +260,8 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     reading.add_argument("--decimal", default=None, choices=[".", ","],
                          help="decimal mark of text files (default: sniffed; ',' for European exports)")
     reading.add_argument("--input-dx", type=float, default=None, metavar="M",
-                         help="sampling interval in m of heights-only files (.npy, one-column text)")
+                         help="sampling interval in m of heights-only files (.npy, one-column text); files with "
+                              "distances keep their own")
     parser.add_argument("--keep-profiles", action="store_true",
                         help="also write the enveloped profiles and pressures (large)")
     parser.add_argument("--engine", choices=["local", "dask"], default="local",

@@ -377,6 +377,10 @@ def test_each_runs_conditioning_is_shown(report, results: Path) -> None:
     assert shown["valid MPD baselines"] == [f"{v}/{n}" for v, n in runs.select("mpd_valid_baselines", "mpd_baselines").iter_rows()]
     assert shown["MPD valid"] == ["yes" if v else "no" for v in runs["mpd_valid"]]
     np.testing.assert_allclose([float(v) for v in shown["MPD (mm)"]], runs["mpd"].to_numpy() * 1e3, rtol=5e-3)
+    # the main table says it too: an MPD from too few valid baselines is not read as a valid one
+    main = parse(report.html).tables["runs"]
+    validity = dict(zip(column(main, "run_id"), column(main, "MPD valid")))
+    assert validity == {r: "yes" if v else "no" for r, v in runs.select("run_id", "mpd_valid").iter_rows()}
     np.testing.assert_allclose([float(v) for v in shown["spikes (%)"]], runs["spike_fraction"].to_numpy() * 100,
                                rtol=5e-3, atol=1e-12)
 

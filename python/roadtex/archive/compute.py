@@ -23,9 +23,9 @@ from roadtex.models.contact import contact_many
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, implausible_texture
 from roadtex.profiles.profile import Profile
-from roadtex.profiles.readers import read_profile
+from roadtex.profiles.readers import read_profile_unjudged
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE, band_table
 from roadtex.spectra.levels import band_levels
@@ -81,14 +81,28 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     if options.dx is None or options.tol is None:
         raise InvalidInputError("compute_run needs options.dx and options.tol (the job's plan sets them)")
     name = Path(run["path"]).name
-    raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reader_options(run, options)))
+    reading = reader_options(run, options)
+    # judged here, and refused: no warning from the reader that it computes as given
+    raw = run_stage("read", lambda: read_profile_unjudged(run["path"], format=run.get("format"), **reading))
     reason = implausible_texture(raw.heights, raw.dx, name)
     if reason is not None:
-        raise RunFailure("read", InvalidInputError(
-            f"{reason} Give the file's units (manifest columns distance_unit, height_unit; --height-unit)."))
+        if reading.get("dx") is not None and raw.dx > PLAUSIBLE_MAX_DX:
+            what = (f"The interval dx = {reading['dx']:g} given for it (manifest column dx, --input-dx) must be in "
+                    "metres (0.5 mm is 0.5e-3).")
+        else:
+            what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
+                    "--height-unit) where its header states none; a unit its header states wrongly must be "
+                    "corrected in the file (a unit given never overrides the header's).")
+        raise RunFailure("read", InvalidInputError(f"{reason} {what}"))
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
+    if conditioned.length < options.segment_length:
+        trimmed = f", {cleaning.trimmed_length:.3g} m of reference plates trimmed" if cleaning.trimmed_length > 0 else ""
+        raise RunFailure("segment", InvalidInputError(
+            f"{name}: the run is {conditioned.length:.4g} m long{trimmed}, shorter than one segment of "
+            f"{options.segment_length:g} m: process it with a --segment-length (ProcessingOptions.segment_length) "
+            f"of at most {conditioned.length:.4g} m, in a job of its own if the other runs keep theirs"))
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
     moduli = np.asarray(options.youngs_moduli)

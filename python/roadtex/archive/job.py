@@ -86,7 +86,9 @@ class ProcessSummary:
         record = (f" ({earlier} more failed in an earlier call and were not retried: see errors.parquet, "
                   "or process again with --retry-failed)") if earlier > 0 else ""
         line_runs = self.runs - self.surface_runs
-        grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None and line_runs else ""
+        # no run done, no interval to state (the plan's fallback when no run could be read is no sampling of the road)
+        done = self.processed + self.skipped > 0
+        grid = f" at dx {self.dx * 1e3:.4g} mm" if self.dx is not None and line_runs and done else ""
         if self.surface_runs:
             grid += f"{',' if grid else ';'} {self.surface_runs} surface run(s) at their own spacings"
         length = f"{self.kilometres:.3f} km" if self.kilometres >= 1.0 else f"{self.kilometres * 1e3:.4g} m"
@@ -138,8 +140,10 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             if tables.get("example") is not None:
                 tables.update(run_stage("solve", lambda: comparison_tables(tables["example"], options.mean_pressure)))
     except RunFailure as failure:
+        # every recorded message names the file, whichever stage failed (the readers' do already)
+        message, name = str(failure.cause), Path(run["path"]).name
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
-                      message=str(failure.cause), kilometres=0.0)
+                      message=message if name in message else f"{name}: {message}", kilometres=0.0)
     else:
         for name, table in tables.items():
             if not isinstance(table, pl.DataFrame):   # None, or a note for the status

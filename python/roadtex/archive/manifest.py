@@ -2,19 +2,51 @@
 
 from __future__ import annotations
 
+import difflib
+import io
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
-from roadtex.errors import ManifestError
-from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.errors import ImplausibleTextureWarning, ManifestError
+from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.readers import file_head, guess_format, read_profile_unjudged
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
+#: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
+COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
+
+
+def candidate_files(root: Path, recursive: bool) -> list[Path]:
+    """The files of a survey folder :func:`build_manifest` considers: not hidden, not a manifest."""
+    return sorted(p for p in (root.rglob("*") if recursive else root.glob("*"))
+                  if p.is_file() and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
+
+
+def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) -> list[str]:
+    """The files of ``folder`` that :func:`build_manifest` does not list (a suffix other than
+    :data:`PROFILE_SUFFIXES`; hidden files and ``manifest*`` files aside), each as "name: why", so
+    that no profile is left out without a word (a gzipped export, a spreadsheet)."""
+    root = Path(folder)
+    listed = ", ".join(sorted(PROFILE_SUFFIXES))
+    notes = []
+    for path in candidate_files(root, recursive):
+        if path.suffix.lower() in PROFILE_SUFFIXES:
+            continue
+        name = path.relative_to(root).as_posix()
+        if path.suffix.lower() in COMPRESSED_SUFFIXES:
+            notes.append(f"{name}: compressed ({path.suffix}); roadtex reads no compressed files: decompress it "
+                         "(e.g. gunzip) into the folder and run roadtex manifest again")
+        else:
+            suffix = f"suffix {path.suffix!r}" if path.suffix else "no suffix"
+            notes.append(f"{name}: {suffix}, not one of the profile files' ({listed})")
+    return notes
 
 
 def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: str | os.PathLike[str] | None = None,
@@ -54,8 +86,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             if not text:
                 table = pl.read_parquet(manifest_path)
             else:
-                separator = "\t" if manifest_path.suffix.lower() in (".tsv", ".tab") else ","
-                table = pl.read_csv(manifest_path, separator=separator, infer_schema=False)
+                table = read_text_manifest(manifest_path)
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
@@ -71,10 +102,10 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                if c not in known and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
     if unknown:
         raise ManifestError(
-            f"{where} has unknown column(s) {', '.join(map(repr, unknown))}; known: "
+            f"{where} has unknown column(s) {', '.join(map(repr, unknown))}{column_hints(unknown, known)}; known: "
             f"{', '.join(MANIFEST_COLUMNS)}; reader options {', '.join(READER_COLUMNS)}; "
             f"and {NOISE_PREFIX}<band> for noise levels (dB); "
-            "pass extra_columns to carry others along")
+            "in Python, pass extra_columns to carry others along")
     if table.height == 0:
         raise ManifestError(f"{where} lists no runs")
     casts = []
@@ -116,8 +147,15 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     paths = [str((base / p).resolve()) if not Path(p).is_absolute() else str(Path(p)) for p in table["path"]]
     missing = [i for i, p in enumerate(paths) if not Path(p).exists()]
     if missing:
+        given = Path(table["path"][missing[0]])
+        hint = ""
+        if not given.is_absolute():
+            hint = f"; relative paths are taken from the manifest's folder, {base}"
+            if (Path.cwd() / given).exists() and Path.cwd().resolve() != base.resolve():
+                hint += (f" ({given} is a file from the current folder, {Path.cwd()}: write the paths relative "
+                         "to the manifest's folder, or absolute)")
         raise ManifestError(f"{cell(missing[0], 'path')}: no file {paths[missing[0]]} "
-                            f"({len(missing)} file(s) listed in the manifest do not exist)")
+                            f"({len(missing)} file(s) listed in the manifest do not exist){hint}")
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
     seen: dict[str, int] = {}
     for index, rid in enumerate(run_ids):
@@ -128,6 +166,58 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
         seen[rid] = index
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
+
+
+def read_text_manifest(path: Path) -> pl.DataFrame:
+    """A CSV or TSV manifest as strings, as spreadsheets save it: comma, tab or (European Excel)
+    semicolon separated, Excel's ``sep=;`` line, a byte-order mark. With semicolons, a decimal
+    comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
+    point: every number is then read as written."""
+    raw = path.read_bytes()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    lines = raw.split(b"\n", 2)
+    first = lines[0].strip()
+    hint = first.lower().startswith(b"sep=") and len(first) == 5
+    if hint:
+        raw = raw[len(lines[0]) + 1:]
+        header = lines[1] if len(lines) > 1 else b""
+    else:
+        header = lines[0]
+    if hint:
+        separator = first[4:5].decode("latin-1")
+    elif path.suffix.lower() in (".tsv", ".tab") or (b"\t" in header and b"," not in header):
+        separator = "\t"
+    elif b";" in header and b"," not in header:
+        separator = ";"
+    else:
+        separator = ","
+    table = pl.read_csv(io.BytesIO(raw), separator=separator, infer_schema=False)
+    if separator == ";":
+        numeric = [c for c in table.columns if c in ("speed_kmh", "dx", "dy", "start") or c.startswith(NOISE_PREFIX)]
+        table = table.with_columns(pl.col(c).str.replace(",", ".", literal=True) for c in numeric)
+    return table
+
+
+#: Manifest columns users write for what is a job option, not a per-run column.
+JOB_OPTION_COLUMNS = {"youngs_modulus": "--moduli", "youngs_moduli": "--moduli", "modulus": "--moduli",
+                      "moduli": "--moduli", "e": "--moduli", "mean_pressure": "--pressure", "pressure": "--pressure",
+                      "segment_length": "--segment-length", "tol": "--tol", "poisson": "--poisson"}
+
+
+def column_hints(unknown: Sequence[str], known: Sequence[str]) -> str:
+    """What each unknown manifest column was probably meant to be: a misspelled known column, or a
+    job option (E, P, ...) that the command line takes for the whole job."""
+    hints = []
+    for column in unknown:
+        option = JOB_OPTION_COLUMNS.get(column.strip().lower())
+        close = difflib.get_close_matches(column.strip().lower(), list(known), n=1, cutoff=0.75)
+        if option is not None:
+            hints.append(f"{column!r} is a job option, not a manifest column: roadtex process {option} "
+                         "(ProcessingOptions in Python) sets it for every run")
+        elif close:
+            hints.append(f"{column!r}: did you mean {close[0]!r}?")
+    return f" ({'; '.join(hints)})" if hints else ""
 
 
 def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, read_metadata: bool = True) -> pl.DataFrame:
@@ -148,11 +238,11 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     root = Path(folder)
     if not root.is_dir():
         raise ManifestError(f"{root} is not a folder")
-    files = sorted(p for p in (root.rglob("*") if recursive else root.glob("*"))
-                   if p.is_file() and p.suffix.lower() in PROFILE_SUFFIXES
-                   and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
+    files = [p for p in candidate_files(root, recursive) if p.suffix.lower() in PROFILE_SUFFIXES]
     if not files:
-        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet, .crg) in {root}")
+        others = unlisted_files(root, recursive=recursive)
+        found = f"; not listed: {'; '.join(others[:5])}{' ...' if len(others) > 5 else ''}" if others else ""
+        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet, .crg) in {root}{found}")
     rows = []
     for path in files:
         row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
@@ -162,16 +252,25 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
         if surface:
             row["format"] = "surface"
         if read_metadata:
+            implausible = None
             try:
                 if surface:
                     metadata = read_surface(path).metadata
                 else:
-                    metadata = read_profile(path).metadata
+                    profile = read_profile_unjudged(path)
+                    metadata = profile.metadata
                     # the format the file was read as, so that runs.parquet says it (its metadata's
                     # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
                     row["format"] = guess_format(path, file_head(path))
+                    implausible = implausible_texture(profile.heights, profile.dx, path.name)
             except Exception:  # listed anyway: the job records why it fails
                 metadata = {}
+            if implausible is not None:
+                # what the job will do with it (refuse it), not the reader's "computing as given"
+                warnings.warn(f"{implausible} roadtex process refuses it unless its manifest row gives the units "
+                              "its header lacks (distance_unit, height_unit; a wrong unit in the header must be "
+                              "corrected in the file) or, for heights only, dx in metres",
+                              ImplausibleTextureWarning, stacklevel=2)
             for name in METADATA_COLUMNS:
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata[name]

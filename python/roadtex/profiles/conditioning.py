@@ -59,6 +59,46 @@ def format_number(value: float) -> str:
     return f"{value:.6g}"
 
 
+#: A step between consecutive readings longer than this many sampling intervals is a gap: rows
+#: missing from the file (an export that dropped its drop-outs instead of writing them as empty
+#: fields or NaN). Each grid position inside a gap is a drop-out.
+GAP_STEPS = 1.5
+
+
+def sampling_interval(positions: np.ndarray) -> float:
+    """The nominal sampling interval (m) of sorted reading positions (m): the mean step, each gap
+    (a step over :data:`GAP_STEPS` times the median step) counted as the whole number of steps it
+    spans. Equal to the mean step, (last - first) / (n - 1), when no row is missing."""
+    x = np.asarray(positions, dtype=np.float64)
+    if x.size < 2:
+        return 0.0
+    span = float(x[-1] - x[0])
+    steps = np.diff(x)
+    typical = float(np.median(steps))
+    gaps = steps > GAP_STEPS * typical
+    if typical <= 0 or not gaps.any():
+        return span / (x.size - 1)
+    dx = typical
+    for _ in range(2):   # the median step of rounded positions is off by the rounding: count again with the mean
+        spanned = float(np.rint(steps[gaps] / dx).sum())
+        dx = span / (x.size - 1 - int(gaps.sum()) + spanned)
+    return dx
+
+
+def missing_positions(positions: np.ndarray, dx: float) -> np.ndarray:
+    """Grid positions (m) with no row in the file: those inside the gaps (steps over
+    :data:`GAP_STEPS` ``dx``, m) between sorted reading positions (m). Empty when none is missing."""
+    x = np.asarray(positions, dtype=np.float64)
+    if x.size < 2 or not dx > 0:
+        return np.empty(0)
+    steps = np.diff(x)
+    gaps = np.flatnonzero(steps > GAP_STEPS * dx)
+    if gaps.size == 0:
+        return np.empty(0)
+    counts = np.rint(steps[gaps] / dx).astype(np.int64) - 1
+    return np.concatenate([x[g] + dx * np.arange(1, c + 1) for g, c in zip(gaps, counts) if c > 0] or [np.empty(0)])
+
+
 #: A plate is at least this far (m) above the road next to it (:func:`road_line`) ...
 PLATE_HEIGHT = 0.02
 #: ... spans at least this length (m), drop-outs inside it included ...
@@ -336,7 +376,8 @@ WARN_TRIMMED_FRACTION = 0.25
 
 @dataclass(frozen=True)
 class CleaningSummary:
-    """What cleaning removed from one run (lengths in m, shares 0..1 of the readings kept after trimming)."""
+    """What cleaning removed from one run (lengths in m, shares 0..1 of the readings kept after trimming;
+    rows missing from the file, :func:`missing_positions`, count as readings and drop-outs)."""
 
     raw_length: float
     trimmed_length: float
@@ -442,6 +483,13 @@ def clean(profile: Profile, *, spike_alpha: float | None = 3.0, trim_plates: boo
         profile = trim_reference_plates(profile, name=name)
         plates = profile.history[-1].split("plates at ", 1)[1].split("; kept", 1)[0] if len(profile) != before else "none"
     profile, shares = flag_outliers_and_spikes(profile, spike_alpha, spike_mask, "over +-")
+    # Rows missing from the file (gaps in the distances) are drop-outs of the grid too: counted so,
+    # every share taken of the grid's readings, the file's and the missing ones.
+    missing = missing_positions(profile.positions, profile.dx).size
+    if missing:
+        total = len(profile) + missing
+        shares = {key: value * len(profile) / total for key, value in shares.items()}
+        shares["dropout_fraction"] += missing / total
     summary = CleaningSummary(raw_length=raw_length, trimmed_length=raw_length - profile.length, plates=plates,
                               **shares, warnings=())
     notes = removal_notes(summary)

@@ -10,7 +10,7 @@ import polars as pl
 
 from roadtex._checks import fraction, positive
 from roadtex.errors import InvalidInputError
-from roadtex.profiles.conditioning import format_number, outlier_mask
+from roadtex.profiles.conditioning import format_number, missing_positions, outlier_mask
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.trend import remove_lines
@@ -175,6 +175,10 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     inside = (raw_segment >= 0) & (raw_segment < n_segments)
     raw_counts = np.bincount(raw_segment[inside], minlength=n_segments)
     raw_missing = np.bincount(raw_segment[inside], weights=np.isnan(raw.heights[inside]), minlength=n_segments)
+    # rows missing from the file (gaps in its distances) are drop-outs of the raw readings too
+    gap_segment = np.floor((missing_positions(raw.positions, raw.dx) - left) / seg_length + 1e-9).astype(np.int64)
+    gap_counts = np.bincount(gap_segment[(gap_segment >= 0) & (gap_segment < n_segments)], minlength=n_segments)
+    raw_counts, raw_missing = raw_counts + gap_counts, raw_missing + gap_counts
     with np.errstate(invalid="ignore", divide="ignore"):
         dropout = np.where(raw_counts > 0, raw_missing / np.maximum(raw_counts, 1), 1.0)
     spike_fraction = spikes[:used].reshape(n_segments, points).mean(axis=1)

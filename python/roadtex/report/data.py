@@ -129,6 +129,19 @@ class Results:
         return "run_id"
 
 
+def failures_said(errors_path: Path, most: int = 5) -> str:
+    """The failed runs of errors.parquet as the message of a report that cannot be drawn: each run
+    and why (its message names the file), the first ``most`` of them."""
+    if not errors_path.is_file():
+        return ""
+    errors = pl.read_parquet(errors_path, columns=["run_id", "stage", "message"])
+    if errors.height == 0:
+        return " (errors.parquet lists no failure)"
+    listed = "; ".join(f"{r['run_id']} ({r['stage']}): {r['message']}" for r in errors.head(most).iter_rows(named=True))
+    more = f"; and {errors.height - most} more" if errors.height > most else ""
+    return f". errors.parquet: {listed}{more}"
+
+
 def load_results(results_dir: Path) -> Results:
     """The tables of a results folder written by :func:`roadtex.process`."""
     needed = ("segments.parquet", "bands.parquet", "runs.parquet", "examples.parquet", "edge_effect.parquet",
@@ -139,7 +152,8 @@ def load_results(results_dir: Path) -> Results:
                                 "(run `roadtex process MANIFEST --out DIR` first, with this version of roadtex)")
     segments = pl.read_parquet(results_dir / "segments.parquet")
     if segments.height == 0:
-        raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed (see errors.parquet)")
+        raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed, so there is "
+                                f"nothing to report{failures_said(results_dir / 'errors.parquet')}")
     errors_path = results_dir / "errors.parquet"
     pilot_path = results_dir / "pilot.parquet"
     bands = read_reported_bands(results_dir / "bands.parquet")

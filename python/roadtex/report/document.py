@@ -176,14 +176,18 @@ def modulus_column(e: float) -> str:
 
 
 def run_table(results: Results) -> pl.DataFrame:
-    """The report's main table: per run, length (m), MPD (mm; null where undefined), and per E the
+    """The report's main table: per run, length (m), MPD (mm; null where undefined) and whether it
+    is valid (ISO 13473-1: half the baselines valid), and per E the
     contact fraction (%) and the mean texture level of the original profile (dB re 1 µm, energetic
     mean over the run's reported bands and segments)."""
     seg = results.segments
     per_e = (seg.group_by("run_id", "youngs_modulus", maintain_order=True)
              .agg(pl.col("contact_fraction").mean(), pl.col("mean_gap").mean(), pl.col("max_pressure").max()))
+    # the MPD's ISO validity beside it: a run with few valid baselines still has a number
     wide = results.runs.select("run_id", pl.col("length").alias("length (m)"),
-                               (pl.col("mpd").fill_nan(None) * MM).alias("MPD (mm)"))
+                               (pl.col("mpd").fill_nan(None) * MM).alias("MPD (mm)"),
+                               pl.when(pl.col("mpd_valid")).then(pl.lit("yes")).otherwise(pl.lit("no"))
+                               .alias("MPD valid"))
     if results.group_column() != "run_id":
         groups = results.run_groups().rename({"group": results.group_column()})
         wide = groups.join(wide, on="run_id", how="right").select("run_id", pl.exclude("run_id"))

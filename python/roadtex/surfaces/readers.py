@@ -4,16 +4,17 @@ from __future__ import annotations
 
 import io
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
 from roadtex._checks import positive
-from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError
+from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number
 from roadtex.profiles.plausibility import warn_if_implausible_texture
-from roadtex.profiles.readers import file_head, guess_format
+from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
 from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
 from roadtex.profiles.readers.text import DROPOUT_TOKENS, column_unit, first_lines, pick_column, split_column_name
@@ -201,6 +202,25 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
 
 
 def grid_index(values: np.ndarray, given: float | None, what: str, name: str) -> tuple[np.ndarray, float, float]:
+    """Index of each position (m) on a regular grid, the spacing (m) and the first node (m); refuses
+    non-grids. A spacing ``given`` (m) more than 1 % off the positions' own grid's is ignored with a
+    :class:`~roadtex.errors.UnitConflictWarning`, as a profile's distances are kept: a job-wide
+    ``--input-dx`` for heights-only files must neither refuse a table with positions nor spread it
+    over a finer grid of empty nodes."""
+    if given is None or np.unique(values).size < 2:
+        return regular_grid(values, given, what, name)
+    try:
+        own = regular_grid(values, None, what, name)
+    except ProfileFormatError:
+        return regular_grid(values, given, what, name)   # off a grid of their own: the given spacing may place them
+    if abs(own[1] - positive(given, f"d{what}")) > DX_CONFLICT * own[1]:
+        warnings.warn(f"{name}: its {what} positions are {own[1]:.4g} m apart; the d{what} {given:g} m given is ignored "
+                      "for it (a file's own positions are kept)", UnitConflictWarning, stacklevel=4)   # read_surface's caller
+        return own
+    return regular_grid(values, given, what, name)
+
+
+def regular_grid(values: np.ndarray, given: float | None, what: str, name: str) -> tuple[np.ndarray, float, float]:
     """Index of each position on a regular grid, the spacing and the first node; refuses non-grids.
 
     Without ``given``, the spacing is the span over the number of grid steps (each gap between

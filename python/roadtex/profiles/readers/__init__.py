@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from roadtex._checks import positive
-from roadtex.errors import InvalidInputError, ProfileFormatError
-from roadtex.profiles.conditioning import format_number
+from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
+from roadtex.profiles.conditioning import format_number, missing_positions
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
@@ -17,6 +18,9 @@ from roadtex.profiles.readers.npy import read_npy
 from roadtex.profiles.readers.parquet import read_parquet
 from roadtex.profiles.readers.text import decode_text, nominal_dx, sorted_samples
 
+#: A dx given for a file with distances that differs from their interval by more than this share
+#: is ignored, with a warning: the file's distances are kept.
+DX_CONFLICT = 0.01
 #: Formats :func:`read_profile` reads.
 FORMATS = ("captif", "csv", "npy", "parquet")
 #: The options :func:`read_profile` takes, with their types (the bulk job's manifest columns of
@@ -77,7 +81,8 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
 
     Options: ``distance_column``, ``height_column`` (name or index), ``distance_unit``,
     ``height_unit`` (``"m"``, ``"mm"``, ``"um"``, ...), ``dx`` (m, for heights-only data; also the
-    nominal dx to record), ``start`` (m, first position for heights-only data), ``delimiter``,
+    nominal dx to record, within 1 % of the interval of a file's own distances: one further off is
+    ignored with a :class:`~roadtex.errors.UnitConflictWarning`), ``start`` (m, first position for heights-only data), ``delimiter``,
     ``decimal`` (``"."`` or ``","``; a decimal comma is recognised in ``;``- or tab-separated
     files when every comma in the first rows sits inside a number), ``encoding`` (text files;
     UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
@@ -90,26 +95,45 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
             usable distance or height column or an unknown unit, holds only drop-outs, or has
             duplicate positions with conflicting heights (the message names the problem).
     """
+    file, name, fmt = opened(path, format, options)
+    try:
+        return read_as(file, name, fmt, options)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        raise named(exc, name) from None
+
+
+def read_profile_unjudged(path: str | Path, format: str | None = None, **options: object) -> Profile:
+    """:func:`read_profile` without its warning about heights that cannot be a road texture in the
+    unit read (:class:`~roadtex.errors.ImplausibleTextureWarning`): for a caller that judges them
+    and refuses the file itself (the bulk job, whose refusal says why). Same arguments, result
+    and errors as :func:`read_profile`; positions and heights in m."""
+    file, name, fmt = opened(path, format, options)
+    try:
+        return read_as(file, name, fmt, options, judge=False)
+    except (ProfileFormatError, InvalidInputError) as exc:
+        raise named(exc, name) from None
+
+
+def opened(path: str | Path, format: str | None, options: dict[str, object]) -> tuple[Path, str, str]:
+    """The file, its name and its format (given, else guessed), the options checked."""
     file = Path(path)
-    name = file.name
     unknown = set(options) - set(READ_OPTIONS)
     if unknown:
         raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
     if format is not None and format not in FORMATS:
         raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
     head = file_head(file)
-    fmt = format or guess_format(file, head)
-    try:
-        return read_as(file, name, fmt, options)
-    except (ProfileFormatError, InvalidInputError) as exc:
-        # every message names the file, whichever helper raised it
-        if str(exc).startswith(name):
-            raise
-        raise type(exc)(f"{name}: {exc}") from None
+    return file, file.name, format or guess_format(file, head)
 
 
-def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Profile:
-    """Reads ``file`` in format ``fmt``; see :func:`read_profile`."""
+def named(exc: ProfileFormatError | InvalidInputError, name: str) -> ProfileFormatError | InvalidInputError:
+    """``exc`` with a message that names the file, whichever helper raised it."""
+    return exc if str(exc).startswith(name) else type(exc)(f"{name}: {exc}")
+
+
+def read_as(file: Path, name: str, fmt: str, options: dict[str, object], *, judge: bool = True) -> Profile:
+    """Reads ``file`` in format ``fmt``; see :func:`read_profile` (``judge``: warn about heights
+    that cannot be a road texture in the unit read)."""
     if fmt == "npy":
         positions, heights, metadata, history, dx = read_npy(file, name, options)
         encoding = None
@@ -132,14 +156,27 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     positions, heights, note = sorted_samples(positions, heights, name)
     if positions.size < 2:
         raise ProfileFormatError(f"{name}: fewer than 2 distinct positions")
-    dx_f = positive(dx, "dx") if dx is not None else nominal_dx(positions)
+    own = nominal_dx(positions)
+    # (only a dx the caller gave: one stored by write_profile reads back as written)
+    if options.get("dx") is not None and dx is not None and abs(positive(dx, "dx") - own) > DX_CONFLICT * own:
+        # A job-wide --input-dx is for heights-only files: it must not redefine the interval of a
+        # file whose distances state their own (the job would resample it at the wrong grid).
+        warnings.warn(f"{name}: its distances are {own:.4g} m apart; the dx {dx:g} m given is ignored for it (a given "
+                      "dx is the interval of heights-only files; a file's own distances are kept)",
+                      UnitConflictWarning, stacklevel=3)   # the caller of read_profile
+        dx = None
+    dx_f = positive(dx, "dx") if dx is not None else own
+    gaps = missing_positions(positions, dx_f).size
+    if gaps:
+        note += f"; {gaps} rows missing (gaps in the distances), drop-outs on the grid"
     metadata.setdefault("source", name)
     encoding_note = f", {encoding}" if encoding not in (None, "utf-8") else ""
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
     profile = Profile(heights, positions, dx_f, metadata, tuple(history))
-    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
+    if judge:
+        warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile", "read_profile_unjudged"]

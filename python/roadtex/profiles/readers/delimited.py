@@ -113,6 +113,19 @@ def preamble_metadata(lines: list[bytes]) -> tuple[dict[str, object], str | None
     return metadata, separator
 
 
+#: Metadata keys (lower case) that name a sampling interval: a heights-only file's header may state it.
+SPACING_KEY = re.compile(r"(^|_)(dx|spacing|interval|sampling|step|resolution)(_|$)")
+
+
+def spacing_in_header(metadata: dict[str, object]) -> str:
+    """For the message refusing heights without dx: the sampling interval the file's header states,
+    if any, quoted as written (its unit is the header's; roadtex does not guess it into dx)."""
+    said = [f"{key}: {value}" for key, value in metadata.items() if SPACING_KEY.search(key)]
+    if not said:
+        return ""
+    return f"; the file's header says {'; '.join(repr(s) for s in said[:3])}: give that interval as dx, in metres"
+
+
 def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     lines, ends = first_lines(data, 200)
     metadata: dict[str, object] = {}
@@ -226,8 +239,11 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     row_numbers = np.arange(table.shape[0])
     if has_header:
         h_index = pick_column(names, options.get("height_column"), HEIGHT_NAMES, "height", True)
-        d_index = pick_column(names, options.get("distance_column"), DISTANCE_NAMES, "distance",
-                               options.get("dx") is None)
+        try:
+            d_index = pick_column(names, options.get("distance_column"), DISTANCE_NAMES, "distance",
+                                   options.get("dx") is None)
+        except ProfileFormatError as exc:
+            raise ProfileFormatError(f"{exc}{spacing_in_header(metadata)}") from None
     else:
         h_given, d_given = options.get("height_column"), options.get("distance_column")
         if n_columns == 1:

@@ -12,6 +12,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.errors import ProfileFormatError, UnitConflictWarning
+from roadtex.profiles.conditioning import sampling_interval
 from roadtex.profiles.units import UNITS, unit_factor
 
 #: Fields (lower case, stripped) that mark a missing reading rather than a bad number.
@@ -110,7 +111,8 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
         if synonym in bases:
             return bases.index(synonym)
     if required:
-        hint = ", or give dx (m) for evenly spaced heights" if what == "distance" else ""
+        hint = (", or give dx (m) for evenly spaced heights (a read_profile option, the manifest column dx or "
+                "roadtex process --input-dx)") if what == "distance" else ""
         raise ProfileFormatError(f"no {what} column among {column_list(names)}; name it with {what}_column ({where})"
                                  f"{hint}")
     return None
@@ -154,7 +156,9 @@ def column_unit(names: list[str], index: int, given: str | None, what: str, *, s
 
 
 def nominal_dx(positions: np.ndarray) -> float:
-    return float((positions[-1] - positions[0]) / (positions.size - 1)) if positions.size > 1 else 0.0
+    """The file's sampling interval (m) from its sorted positions (m): the mean step, gaps (rows
+    missing) counted as the steps they span (:func:`~roadtex.profiles.conditioning.sampling_interval`)."""
+    return sampling_interval(positions)
 
 
 def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray, str]:
@@ -177,7 +181,7 @@ def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tup
                 i = int(same[np.flatnonzero(conflict)[0]])
                 raise ProfileFormatError(f"{name}: {same.size} duplicate positions, e.g. {positions[i]:.9g} m with heights "
                                  f"{heights[i]:.9g} and {heights[i + 1]:.9g} m that disagree: cannot sort them out "
-                                 "(a 3-D surface of x, y, z readings? give its manifest row the format 'surface')")
+                                 f"{duplicate_cause(positions, same.size)}")
             keep = np.ones(positions.size, dtype=bool)
             keep[same + 1] = False
             # a duplicate pair keeps the valid height of the two
@@ -186,6 +190,20 @@ def sorted_samples(positions: np.ndarray, heights: np.ndarray, name: str) -> tup
             positions, heights = positions[keep], heights[keep]
             note += f"; merged {same.size} duplicate positions"
     return positions, heights, note
+
+
+def duplicate_cause(positions: np.ndarray, duplicates: int) -> str:
+    """The likely cause of ``duplicates`` positions (m, sorted) repeated with other heights, for
+    the message: distances rounded more coarsely than the sampling (many repeats, distinct
+    positions a whole step apart), else readings of a 3-D surface."""
+    distinct = np.unique(positions)
+    if duplicates >= 0.01 * positions.size and distinct.size > 1:
+        written = float(np.median(np.diff(distinct)))
+        readings = float((positions[-1] - positions[0]) / (positions.size - 1))
+        if written > 1.5 * readings:
+            return (f"(the distances look rounded to steps of {written:.3g} m, coarser than the {readings:.3g} m "
+                    "between readings: export them with more decimals)")
+    return "(a 3-D surface of x, y, z readings? give its manifest row the format 'surface')"
 
 
 def parse_table(data: bytes, separator: str, n_columns: int, name: str,
