@@ -65,17 +65,53 @@ def format_number(value: float) -> str:
 GAP_STEPS = 1.5
 
 
+#: Rows count as missing only where the rest of the file says so: each gap spans a whole number
+#: (>= 2) of steps to within GAP_MULTIPLE_TOLERANCE, the other steps scatter (median absolute
+#: deviation) by at most GAP_REGULARITY of their median, and the gaps do not recur at a steady
+#: spacing (the intervals between them vary by GAP_PATTERN of their mean or more) and are at most
+#: GAP_MAX_SHARE of the steps. Otherwise the
+#: file is uneven, not missing rows: jitter, or distances rounded more coarsely than half the
+#: sampling (0.15 mm written to 0.1 mm alternates 0.1 and 0.2 mm steps, a "gap" every other step).
+GAP_MULTIPLE_TOLERANCE = 0.25
+GAP_REGULARITY = 0.1
+GAP_PATTERN = 0.2
+GAP_MAX_SHARE = 0.3
+
+
+def gap_mask(steps: np.ndarray, dx: float) -> np.ndarray:
+    """Which ``steps`` (m) between sorted readings are gaps of missing rows at sampling ``dx`` (m):
+    none unless the file is regular apart from them (see :data:`GAP_MULTIPLE_TOLERANCE`)."""
+    none = np.zeros(steps.size, dtype=bool)
+    if steps.size == 0 or not dx > 0:
+        return none
+    gaps = steps > GAP_STEPS * dx
+    if not gaps.any() or gaps.sum() > GAP_MAX_SHARE * steps.size:
+        return none
+    spacing = np.diff(np.flatnonzero(gaps))
+    if spacing.size >= 2 and float(spacing.std()) < GAP_PATTERN * float(spacing.mean()):
+        return none   # gaps at a steady spacing: the rounding of the distances
+    multiple = steps[gaps] / dx
+    if np.any(np.abs(multiple - np.rint(multiple)) > GAP_MULTIPLE_TOLERANCE) or np.any(np.rint(multiple) < 2):
+        return none
+    regular = steps[~gaps]
+    middle = float(np.median(regular))
+    if middle <= 0 or float(np.median(np.abs(regular - middle))) > GAP_REGULARITY * middle:
+        return none
+    return gaps
+
+
 def sampling_interval(positions: np.ndarray) -> float:
     """The nominal sampling interval (m) of sorted reading positions (m): the mean step, each gap
-    (a step over :data:`GAP_STEPS` times the median step) counted as the whole number of steps it
-    spans. Equal to the mean step, (last - first) / (n - 1), when no row is missing."""
+    (a step over :data:`GAP_STEPS` times the median step, in a file regular apart from its gaps:
+    :func:`gap_mask`) counted as the whole number of steps it spans. Equal to the mean step,
+    (last - first) / (n - 1), when no row is missing."""
     x = np.asarray(positions, dtype=np.float64)
     if x.size < 2:
         return 0.0
     span = float(x[-1] - x[0])
     steps = np.diff(x)
     typical = float(np.median(steps))
-    gaps = steps > GAP_STEPS * typical
+    gaps = gap_mask(steps, typical)
     if typical <= 0 or not gaps.any():
         return span / (x.size - 1)
     dx = typical
@@ -86,13 +122,14 @@ def sampling_interval(positions: np.ndarray) -> float:
 
 
 def missing_positions(positions: np.ndarray, dx: float) -> np.ndarray:
-    """Grid positions (m) with no row in the file: those inside the gaps (steps over
-    :data:`GAP_STEPS` ``dx``, m) between sorted reading positions (m). Empty when none is missing."""
+    """Grid positions (m) with no row in the file: those inside the gaps (:func:`gap_mask`: steps
+    over :data:`GAP_STEPS` ``dx``, m, in a file otherwise regular) between sorted reading positions
+    (m). Empty when none is missing."""
     x = np.asarray(positions, dtype=np.float64)
     if x.size < 2 or not dx > 0:
         return np.empty(0)
     steps = np.diff(x)
-    gaps = np.flatnonzero(steps > GAP_STEPS * dx)
+    gaps = np.flatnonzero(gap_mask(steps, dx))
     if gaps.size == 0:
         return np.empty(0)
     counts = np.rint(steps[gaps] / dx).astype(np.int64) - 1

@@ -40,6 +40,10 @@ PLAUSIBLE_MAX_DX = 5e-3
 #: over 1 m it rises 0.1 mm).
 JUDGED_STRETCH = 1.0
 
+#: Fewest samples of a stretch: coarser grids (dx over 1 m / 100 = 10 mm: far too coarse for
+#: texture, e.g. dx given in mm) are judged row by row.
+MIN_STRETCH_POINTS = 100
+
 #: Set inside :func:`judged_once` (for this thread or task only).
 _JUDGED: ContextVar[bool] = ContextVar("roadtex_heights_judged", default=False)
 
@@ -113,7 +117,8 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     if not bad.any():
         return None
     first = int(np.argmax(bad))
-    trend = ("linear trend removed" if n < 2 * max(2, int(round(JUDGED_STRETCH / dx)))
+    length = int(round(JUDGED_STRETCH / dx))
+    trend = ("linear trend removed" if length < MIN_STRETCH_POINTS or n < 2 * length
              else f"linear trend removed per {JUDGED_STRETCH:g} m stretch")
     where = f"{name} ({row} {first}, {int(bad.sum())} of {bad.size} {row}s)" if rows.shape[0] > 1 else name
     if coarse and not large[first]:
@@ -135,9 +140,12 @@ def by_stretches(rows: np.ndarray, dx: float, detrend: Callable[[np.ndarray], np
     rows longer than two :data:`JUDGED_STRETCH`, to each stretch of it: stretches of equal length,
     the last one taking the remainder."""
     n = rows.shape[1]
-    length = max(2, int(round(JUDGED_STRETCH / dx)))
-    stretches = n // length
-    if stretches < 2:
+    length = int(round(JUDGED_STRETCH / dx)) if dx > 0 else 0
+    stretches = n // length if length else 0
+    # A stretch of a few samples would fit its texture away: with dx itself in mm (0.5 for
+    # 0.5 mm), a metre is 2 samples and every line through them leaves zero. Such rows, and any
+    # whose stretches hold fewer than MIN_STRETCH_POINTS, are judged whole.
+    if stretches < 2 or length < MIN_STRETCH_POINTS:
         return detrend(rows)
     head = (stretches - 1) * length   # equal stretches, then the last with the remainder
     body = detrend(rows[:, :head].reshape(-1, length)).reshape(rows.shape[0], head)
