@@ -119,7 +119,7 @@ def test_a_panic_in_any_extension_module_is_that_runs_failure(tmp_path: Path, mo
     manifest = write_synthetic_archive(tmp_path / "archive", runs_per_kind=1, run_length=0.6)
     from roadtex.archive import compute
 
-    real_read = compute.read_profile_unjudged
+    real_read = compute.read_profile
 
     def panicking_read(path, **kwargs):
         if "dense_asphalt" in str(path):
@@ -128,7 +128,7 @@ def test_a_panic_in_any_extension_module_is_that_runs_failure(tmp_path: Path, mo
             _core._panic_for_tests("the core panicked on this file")
         return real_read(path, **kwargs)
 
-    monkeypatch.setattr(compute, "read_profile_unjudged", panicking_read)
+    monkeypatch.setattr(compute, "read_profile", panicking_read)
     summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True)
     assert (summary.processed, summary.failed) == (1, 2)
     failures = pl.read_parquet(tmp_path / "out" / "errors.parquet").sort("run_id")

@@ -23,9 +23,9 @@ from roadtex.models.contact import contact_many
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, implausible_texture
+from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, implausible_texture, judged_once
 from roadtex.profiles.profile import Profile
-from roadtex.profiles.readers import read_profile_unjudged
+from roadtex.profiles.readers import read_profile
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE, band_table
 from roadtex.spectra.levels import band_levels
@@ -83,7 +83,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     name = Path(run["path"]).name
     reading = reader_options(run, options)
     # judged here, and refused: no warning from the reader that it computes as given
-    raw = run_stage("read", lambda: read_profile_unjudged(run["path"], format=run.get("format"), **reading))
+    with judged_once():
+        raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reading))
     reason = implausible_texture(raw.heights, raw.dx, name)
     if reason is not None:
         if reading.get("dx") is not None and raw.dx > PLAUSIBLE_MAX_DX:

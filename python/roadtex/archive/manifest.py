@@ -13,8 +13,8 @@ import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.errors import ImplausibleTextureWarning, ManifestError
-from roadtex.profiles.plausibility import implausible_texture
-from roadtex.profiles.readers import file_head, guess_format, read_profile_unjudged
+from roadtex.profiles.plausibility import implausible_texture, judged_once
+from roadtex.profiles.readers import file_head, guess_format, read_profile
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
@@ -257,7 +257,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 if surface:
                     metadata = read_surface(path).metadata
                 else:
-                    profile = read_profile_unjudged(path)
+                    with judged_once():   # judged below, and warned about once
+                        profile = read_profile(path)
                     metadata = profile.metadata
                     # the format the file was read as, so that runs.parquet says it (its metadata's
                     # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)

@@ -102,18 +102,6 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
         raise named(exc, name) from None
 
 
-def read_profile_unjudged(path: str | Path, format: str | None = None, **options: object) -> Profile:
-    """:func:`read_profile` without its warning about heights that cannot be a road texture in the
-    unit read (:class:`~roadtex.errors.ImplausibleTextureWarning`): for a caller that judges them
-    and refuses the file itself (the bulk job, whose refusal says why). Same arguments, result
-    and errors as :func:`read_profile`; positions and heights in m."""
-    file, name, fmt = opened(path, format, options)
-    try:
-        return read_as(file, name, fmt, options, judge=False)
-    except (ProfileFormatError, InvalidInputError) as exc:
-        raise named(exc, name) from None
-
-
 def opened(path: str | Path, format: str | None, options: dict[str, object]) -> tuple[Path, str, str]:
     """The file, its name and its format (given, else guessed), the options checked."""
     file = Path(path)
@@ -131,9 +119,10 @@ def named(exc: ProfileFormatError | InvalidInputError, name: str) -> ProfileForm
     return exc if str(exc).startswith(name) else type(exc)(f"{name}: {exc}")
 
 
-def read_as(file: Path, name: str, fmt: str, options: dict[str, object], *, judge: bool = True) -> Profile:
-    """Reads ``file`` in format ``fmt``; see :func:`read_profile` (``judge``: warn about heights
-    that cannot be a road texture in the unit read)."""
+def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Profile:
+    """Reads ``file`` in format ``fmt``; see :func:`read_profile` (it warns about heights that
+    cannot be a road texture in the unit read, except inside
+    :func:`~roadtex.profiles.plausibility.judged_once`)."""
     if fmt == "npy":
         positions, heights, metadata, history, dx = read_npy(file, name, options)
         encoding = None
@@ -174,9 +163,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object], *, judg
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
     profile = Profile(heights, positions, dx_f, metadata, tuple(history))
-    if judge:
-        warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
+    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
     return profile
 
 
-__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile", "read_profile_unjudged"]
+__all__ = ["FORMATS", "READ_OPTIONS", "file_head", "guess_format", "read_profile"]
