@@ -21,6 +21,7 @@ from roadtex._checks import (
 from roadtex._core import __version__
 from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
 from roadtex.errors import InvalidInputError
+from roadtex.models.grid import check_interpolant, check_refine
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.spectra.bands import check_band_kind
 
@@ -61,6 +62,12 @@ class ProcessingOptions:
         tol_from_budget: set by the job's plan (:meth:`~roadtex.archive.plan.JobPlan.resolved`)
             when ``tol`` was chosen by the error budget rather than given: surface runs then
             choose their own from their areal pilot (:mod:`roadtex.budget.areal`).
+        refine: the model grid's refinement k: the contact model is solved on a grid k times finer
+            than the data's (every ``dx / k``), the readings joined by ``interpolant``
+            (:mod:`roadtex.models.grid`); texture levels stay those of the data. None (the
+            default): chosen by the error budget (1 without one). 1: the data's own grid.
+        interpolant: the continuous road between readings, ``"linear"`` (default), ``"pchip"`` or
+            ``"bandlimited"`` (:data:`roadtex.models.grid.INTERPOLANTS`).
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
         band_kind: "third_octave" or "octave".
         band_method: "dft" (the default: exact DFT band sums, ISO 13473-4's informative method) or
@@ -84,6 +91,8 @@ class ProcessingOptions:
     error_budget_db: float | None = DEFAULT_ERROR_BUDGET_DB
     tol: float | None = None
     tol_from_budget: bool = False
+    refine: int | None = None
+    interpolant: str = "linear"
     max_iterations: int = 2000
     band_kind: str = "third_octave"
     band_method: str = "dft"
@@ -106,6 +115,9 @@ class ProcessingOptions:
         object.__setattr__(self, "max_iterations", positive_int(self.max_iterations, "max_iterations"))
         if self.dx is not None:
             object.__setattr__(self, "dx", positive(self.dx, "dx", "m"))
+        if self.refine is not None:
+            object.__setattr__(self, "refine", check_refine(self.refine))
+        check_interpolant(self.interpolant)
         overlap = finite_number(self.segment_overlap, "segment_overlap")
         if not 0.0 <= overlap < self.segment_length:
             raise InvalidInputError(f"segment_overlap must be in [0, segment_length) (m), got {self.segment_overlap!r}")
