@@ -20,6 +20,7 @@ from roadtex.archive.schemas import (
 )
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
@@ -69,7 +70,10 @@ def within_file_sampling(bands: pl.DataFrame, file_dx: float, dx: float, length:
 def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
     """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
 
-    ``options.dx`` and ``options.tol`` must be set (the job's plan fills them in:
+    The contact model solves each segment on a grid ``options.refine`` times finer than ``dx``
+    (the readings joined by ``options.interpolant``, :mod:`roadtex.models.grid`); its enveloped
+    and pressure levels are taken on that grid in the data's bands; texture levels are the data's.
+    ``options.dx``, ``options.tol`` and ``options.refine`` must be set (the job's plan fills them in:
     :meth:`~roadtex.archive.plan.JobPlan.resolved`); the plan's error estimates are added when the
     job combines the runs' tables (:func:`roadtex.archive.job.combine`).
 
@@ -78,8 +82,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             too short for one 100 mm MPD baseline or one segment fails as a whole, and so does a
             file whose heights cannot be a road texture in the unit read (a unit mistake).
     """
-    if options.dx is None or options.tol is None:
-        raise InvalidInputError("compute_run needs options.dx and options.tol (the job's plan sets them)")
+    if options.dx is None or options.tol is None or options.refine is None:
+        raise InvalidInputError("compute_run needs options.dx, options.tol and options.refine (the job's plan sets them)")
     name = Path(run["path"]).name
     reading = reader_options(run, options)
     # judged here, and refused: no warning from the reader that it computes as given
@@ -109,6 +113,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     moduli = np.asarray(options.youngs_moduli)
     n_moduli = moduli.size
     dx = segments.dx
+    refine = options.refine
+    model_dx = dx / refine
     speed = run.get("speed_kmh")
     speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
 
@@ -142,22 +148,24 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     for first in range(0, n_segments, CHUNK_SEGMENTS):
         chunk = slice(first, min(first + CHUNK_SEGMENTS, n_segments))
         heights = segments.heights[chunk]
+        model = refine_periodic(heights, refine, options.interpolant)   # heights itself when refine is 1
         batch = run_stage("solve", lambda: contact_many(
-            heights, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+            model, model_dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
             max_iterations=options.max_iterations, threads=threads, warm_start=True,
             raise_on_nonconvergence=False))
         count = heights.shape[0]
-        envelopes = batch.envelope.reshape(count * n_moduli, n_points)
-        pressures = batch.pressure.reshape(count * n_moduli, n_points)
-        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True, method=method))
-        pressure = run_stage("spectra", lambda: band_levels(
-            pressures, dx, kind=options.band_kind, periodic=True, method=method, reference=REFERENCE_PRESSURE))
-        if options.keep_profiles:
-            profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
-            profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)
+        model_points = model.shape[1]
+        envelopes = batch.envelope.reshape(count * n_moduli, model_points)
+        pressures = batch.pressure.reshape(count * n_moduli, model_points)
+        enveloped = run_stage("spectra", lambda: model_levels(envelopes, model_dx, bands, options))
+        pressure = run_stage("spectra", lambda: model_levels(pressures, model_dx, bands, options, REFERENCE_PRESSURE))
+        if options.keep_profiles:   # at the data's readings, as the profile is
+            profile_envelopes[:, chunk] = np.moveaxis(coarse_points(batch.envelope, refine), 1, 0)
+            profile_pressures[:, chunk] = np.moveaxis(coarse_points(batch.pressure, refine), 1, 0)
 
         if first <= example_segment < first + count:
-            example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first)
+            example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first,
+                                    model[example_segment - first], model_dx)
         measures = batch.measures()
         index = np.arange(first, first + count)
         seg_index = np.repeat(index, n_moduli)
@@ -192,8 +200,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "reported": np.tile(bands["reported"].to_numpy(), rows),
             "reason": np.tile(bands["reason"].to_numpy(), rows),
             "texture_level": texture.levels[seg_index].ravel(),
-            "enveloped_level": enveloped.levels.ravel(),
-            "pressure_level": pressure.levels.ravel(),
+            "enveloped_level": enveloped.ravel(),
+            "pressure_level": pressure.ravel(),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id"), pl.lit("line").alias("model"),
                         pl.lit(None, dtype=pl.Int64).alias("line")).select(
             [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
@@ -207,11 +215,24 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
     return tables
+
+
+def model_levels(values: np.ndarray, model_dx: float, bands: pl.DataFrame, options: ProcessingOptions,
+                 reference: float | None = None) -> np.ndarray:
+    """Band levels (rows, bands) of the model's periodic output (rows of enveloped heights in m, or
+    pressures in Pa, sampled every ``model_dx`` m) in the data's bands (``bands``, in its order):
+    the finer model grid resolves bands the data's do not, which are not the run's."""
+    extra = {} if reference is None else {"reference": reference}
+    levels = band_levels(values, model_dx, kind=options.band_kind, periodic=True, method=options.band_method, **extra)
+    if levels.bands.height == bands.height and levels.bands["band"].equals(bands["band"]):
+        return levels.levels   # the data's grid: the same bands
+    numbers = levels.bands["band"].to_list()
+    return levels.levels[:, [numbers.index(band) for band in bands["band"].to_list()]]
 
 
 def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[Profile, CleaningSummary]:
@@ -221,13 +242,14 @@ def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[P
 
 
 def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
-              n_segments: int, tol: float) -> pl.DataFrame:
+              n_segments: int, tol: float, refine: int) -> pl.DataFrame:
     """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity
     (the plan's columns are added when the job combines the runs)."""
     mpd_value = depth.mpd if np.isfinite(depth.mpd) else None
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [tol], "points": [conditioned.heights.size],
+        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [tol], "refine": [refine],
+        "model_dx": [conditioned.dx / refine], "points": [conditioned.heights.size],
         "raw_length": [cleaning.raw_length], "trimmed_length": [cleaning.trimmed_length],
         "length": [conditioned.length], "plates": [cleaning.plates],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
@@ -272,17 +294,18 @@ def stitched_profiles(run_id: str, segments: Any, moduli: np.ndarray, envelopes:
 
 
 def example_table(run_id: str, segments: Any, segment: int, moduli: np.ndarray, batch: ContactBatch,
-                  row: int) -> pl.DataFrame:
-    """One segment's heights (as solved), envelopes and pressures for every modulus (EXAMPLE_SCHEMA)."""
-    n_points = segments.heights.shape[1]
-    positions = segments.starts[segment] + segments.dx * np.arange(n_points)
+                  row: int, model_heights: np.ndarray, model_dx: float) -> pl.DataFrame:
+    """One segment's heights as solved (on the model's grid, ``model_dx`` m), envelopes and
+    pressures for every modulus (EXAMPLE_SCHEMA)."""
+    n_points = model_heights.size
+    positions = segments.starts[segment] + model_dx * np.arange(n_points)
     return pl.DataFrame({
         "run_id": [run_id] * (moduli.size * n_points),
         "segment": np.full(moduli.size * n_points, segment),
         "youngs_modulus": np.repeat(moduli, n_points),
-        "dx": np.full(moduli.size * n_points, segments.dx),
+        "dx": np.full(moduli.size * n_points, model_dx),
         "position": np.tile(positions, moduli.size),
-        "height": np.tile(segments.heights[segment], moduli.size),
+        "height": np.tile(model_heights, moduli.size),
         "envelope": batch.envelope[row].ravel(),
         "pressure": batch.pressure[row].ravel(),
     }, schema=EXAMPLE_SCHEMA)

@@ -346,7 +346,7 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
     interval), or the largest of any group when no pilot covered its group: per (run, band)
     ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``. Surface runs
     have none: the pilot is of line runs, and a surface run is solved at its own spacings."""
-    band_rows: list[tuple[str, int, float]] = []
+    band_rows: list[tuple[str, int, float, float | None, bool | None]] = []
     run_rows: list[tuple[str, float | None, bool | None]] = []
     if plan is not None and plan.budget_db is not None and run_files:
         file_dx = dict(pl.scan_parquet(run_files, schema=RUN_RUN_SCHEMA).select("run_id", "file_dx").collect().iter_rows())
@@ -355,10 +355,15 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
                 continue
             group = plan.group_of(run, file_dx[run["run_id"]])
             errors = plan.band_error_db if group is None else group.band_error_db
-            band_rows += [(run["run_id"], band, error) for band, error in errors.items() if np.isfinite(error)]
+            spread = plan.interpolant_spread_db if group is None else group.interpolant_spread_db
+            band_rows += [(run["run_id"], band, error, spread.get(band),
+                           None if band not in spread else bool(spread[band] > plan.budget_db))
+                          for band, error in errors.items() if np.isfinite(error)]
             run_rows.append((run["run_id"], plan.worst_error_db if group is None else group.worst_error_db,
                              plan.within_budget if group is None else group.within_budget))
-    bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64}, orient="row")
+    bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
+                                            "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean},
+                         orient="row")
     runs = pl.DataFrame(run_rows, schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean},
                         orient="row")
     return bands, runs
@@ -397,9 +402,12 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
         joined = (query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
                   .join(own_bands.lazy(), on=["run_id", "model", "band"], how="left", maintain_order="left"))
         # the line pilot measures the line model of line runs only
+        line_only = surface | (pl.col("model") == "areal")
         return joined.with_columns(pl.when(surface).then(pl.col("surface_error_db"))
                                    .when(pl.col("model") == "areal").then(None)
-                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"))
+                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"),
+                                   *[pl.when(line_only).then(None).otherwise(pl.col(c)).alias(c)
+                                     for c in ("interpolant_spread_db", "sampling_limited")])
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in

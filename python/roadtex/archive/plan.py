@@ -54,6 +54,9 @@ class GroupError:
             that band for the group's runs at the job's setting.
         worst_error_db: the largest of those in the budget bands (dB).
         within_budget: whether that is within the budget.
+        refine: the model grid refinement the pilot chose for the group (the job's may be finer).
+        interpolant_spread_db: band number -> what the group's sampling cannot tell (dB): the
+            spread of the converged levels between interpolants of the readings.
     """
 
     key: str
@@ -61,6 +64,8 @@ class GroupError:
     band_error_db: dict[int, float]
     worst_error_db: float
     within_budget: bool
+    refine: int = 1
+    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -70,12 +75,15 @@ class JobPlan:
     Attributes:
         dx: sampling interval (m).
         tol: solver tolerance (relative residual).
+        refine: the model grid's refinement k: the contact model is solved every ``dx / refine``.
         source: how they were chosen.
         budget_db: the error budget (dB), None when off.
         within_budget: whether every group's estimate is within the budget (None without budget).
         worst_error_db: largest estimated error (dB) in the budget bands, any group (None without budget).
         band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
             that band (texture, enveloped, pressure; any segment, modulus and group).
+        interpolant_spread_db: band number -> the largest spread (dB) of any group's converged
+            levels between interpolants of the readings: what the sampling cannot tell.
         seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
         finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
         speedup: the finest setting's work over the chosen one's (iterations x N log2 N per metre,
@@ -93,10 +101,12 @@ class JobPlan:
     dx: float
     tol: float
     source: str
+    refine: int = 1
     budget_db: float | None = None
     within_budget: bool | None = None
     worst_error_db: float | None = None
     band_error_db: dict[int, float] = field(default_factory=dict)
+    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
     seconds_per_metre: float | None = None
     finest_seconds_per_metre: float | None = None
     speedup: float | None = None
@@ -115,17 +125,19 @@ class JobPlan:
         return next((g for g in self.group_errors.values() if g.key == key and g.spacing == spacing), None)
 
     def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
-        """``options`` with the plan's interval and tolerance filled in (what the runs are solved
-        with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
-        return dataclasses.replace(options, dx=self.dx, tol=self.tol,
+        """``options`` with the plan's interval, refinement and tolerance filled in (what the runs
+        are solved with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
+        return dataclasses.replace(options, dx=self.dx, tol=self.tol, refine=self.refine,
                                    tol_from_budget=options.tol is None and options.error_budget_db is not None)
 
     def summary(self) -> dict[str, Any]:
         """The plan as JSON-ready values (parameters.json)."""
         as_dict = dataclasses.asdict(self)
         as_dict["band_error_db"] = {str(k): v for k, v in self.band_error_db.items()}
+        as_dict["interpolant_spread_db"] = {str(k): v for k, v in self.interpolant_spread_db.items()}
         for group in as_dict["group_errors"].values():
             group["band_error_db"] = {str(k): v for k, v in group["band_error_db"].items()}
+            group["interpolant_spread_db"] = {str(k): v for k, v in group["interpolant_spread_db"].items()}
         return as_dict
 
 
@@ -196,6 +208,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         return plan_without_budget(runs, options), pl.DataFrame()
     if not runs:   # surface runs only: each has its own pilot, spacings and tol
         return JobPlan(dx=options.dx or 0.5e-3, tol=DEFAULT_TOL if options.tol is None else options.tol,
+                       refine=options.refine or 1,
                        source="no line run to plan for (surface runs: their own spacings, and their own "
                               "pilots' tolerances and error estimates)"), pl.DataFrame()
     groups: dict[str, list[dict[str, Any]]] = {}
@@ -219,6 +232,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                         [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
                         mean_pressure=options.mean_pressure, segment_length=options.segment_length,
                         budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
+                        forced_refine=options.refine,
                         poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
                         max_iterations=options.max_iterations, threads=threads)
             except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
@@ -232,9 +246,11 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
             read_runs[name] = [run["run_id"] for run, _ in read]
             group_errors[name] = GroupError(key=key, spacing=spacing, band_error_db=dict(choice.band_error_db),
                                             worst_error_db=float(choice.worst_error_db),
-                                            within_budget=bool(choice.within_budget))
+                                            within_budget=bool(choice.within_budget), refine=choice.refine,
+                                            interpolant_spread_db=dict(choice.interpolant_spread_db))
             studies.append(choice.study.with_columns(
-                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
+                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("refine") == choice.refine)
+                                              & (pl.col("tol") == choice.tol)).alias("chosen")))
     if not choices:
         fallback = plan_without_budget(runs, options)
         return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
@@ -242,8 +258,12 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                                    failed_pilots=failed, unread_runs={**unread, **fallback.unread_runs}), pl.DataFrame()
     dx = min(c.dx for c in choices)
     tol = min(c.tol for c in choices)
+    # the finest model grid any group needs, on the job's data interval
+    refine = max(1, int(np.ceil(dx / min(c.model_dx for c in choices) * (1.0 - 1e-9))))
     bands = sorted({b for c in choices for b in c.band_error_db})
     band_error = {b: max(c.band_error_db.get(b, 0.0) for c in choices) for b in bands}
+    spread = {b: max(c.interpolant_spread_db[b] for c in choices if b in c.interpolant_spread_db)
+              for b in bands if any(b in c.interpolant_spread_db for c in choices)}
     within = all(c.within_budget for c in choices)
     worst = max(c.worst_error_db for c in choices)
     if not within:
@@ -259,8 +279,9 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         pl.col("work_per_metre").filter(pl.col("reference")).max().alias("finest"))
     speedup = float((per_group["finest"] / per_group["chosen"]).min())
     plan = JobPlan(
-        dx=float(dx), tol=float(tol), source=f"error budget pilots of {len(choices)} group(s)",
+        dx=float(dx), tol=float(tol), refine=refine, source=f"error budget pilots of {len(choices)} group(s)",
         budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
+        interpolant_spread_db=spread,
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
         finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
         pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
@@ -270,13 +291,14 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
 
 def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:
     tol = DEFAULT_TOL if options.tol is None else options.tol
+    refine = options.refine or 1   # without a budget, the data's own grid unless one is given
     if options.dx is not None:
-        return JobPlan(dx=options.dx, tol=tol, source="given")
+        return JobPlan(dx=options.dx, tol=tol, refine=refine, source="given")
     unread: dict[str, str] = {}
     read = readable(runs, options, PLAN_SAMPLE_RUNS, unread)
     if not read:
-        return JobPlan(dx=0.5e-3, tol=tol, source="ISO 13473-1 grid (no sampled run could be read)",
+        return JobPlan(dx=0.5e-3, tol=tol, refine=refine, source="ISO 13473-1 grid (no sampled run could be read)",
                        unread_runs=unread)
-    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol,
+    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol, refine=refine,
                    source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]},
                    unread_runs=unread)
