@@ -89,6 +89,7 @@ def process_command(args: argparse.Namespace) -> int:
             refine=args.refine, interpolant=args.interpolant,
             error_budget_db=error_budget(args.error_budget),
             band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
+            allow_implausible=args.allow_implausible,
             reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
         with warnings.catch_warnings():
             # the plausibility of E and P was settled above (--allow-implausible)
@@ -221,8 +222,11 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"mean contact pressure P in MPa (default {defaults.mean_pressure / 1e6:g}; "
                              "outside 0.02 to 3 MPa refused unless --allow-implausible)")
     parser.add_argument("--allow-implausible", action="store_true",
-                        help="solve for E and P outside the plausible ranges, and --dx, --input-dx above 5 mm "
-                             "(they are usually unit mistakes)")
+                        help="solve for E and P outside the plausible ranges, with --dx, --input-dx above 5 mm, "
+                             "and process files whose heights or interval cannot be road texture in metres "
+                             "(they are usually unit mistakes; such runs are refused without it). Files whose "
+                             "distance unit is certain (OpenCRG, a unit in the header, --distance-unit) are "
+                             "processed above 5 mm without it, with a warning, their unresolved bands not reported")
     parser.add_argument("--poisson", type=float, default=defaults.poisson, help="rubber Poisson ratio (default 0.5)")
     parser.add_argument("--segment-length", type=float, default=defaults.segment_length, metavar="M",
                         help="segment length in m for the periodic contact model (default 0.5)")

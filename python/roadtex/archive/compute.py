@@ -24,7 +24,13 @@ from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, implausible_texture, judged_once
+from roadtex.profiles.plausibility import (
+    PLAUSIBLE_MAX_DX,
+    coarse_sampling,
+    implausible_texture,
+    judged_once,
+    stated_distance_unit,
+)
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import read_profile
 from roadtex.spectra.analysis import time_frequency
@@ -67,8 +73,10 @@ def within_file_sampling(bands: pl.DataFrame, file_dx: float, dx: float, length:
                               pl.when(lost).then(why).otherwise(pl.col("reason")).alias("reason"))
 
 
-def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
-    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
+def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
+                threads: int | None = None) -> dict[str, pl.DataFrame | str | None]:
+    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing
+    written) and its notes on plausibility (strings or None, see :func:`plausibility_notes`).
 
     The contact model solves each segment on a grid ``options.refine`` times finer than ``dx``
     (the readings joined by ``options.interpolant``, :mod:`roadtex.models.grid`); its enveloped
@@ -80,7 +88,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
             too short for one 100 mm MPD baseline or one segment fails as a whole, and so does a
-            file whose heights cannot be a road texture in the unit read (a unit mistake).
+            file whose heights cannot be a road texture in the unit read (a unit mistake), unless
+            ``options.allow_implausible`` (:func:`plausibility_notes`).
     """
     if options.dx is None or options.tol is None or options.refine is None:
         raise InvalidInputError("compute_run needs options.dx, options.tol and options.refine (the job's plan sets them)")
@@ -89,16 +98,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     # judged here, and refused: no warning from the reader that it computes as given
     with judged_once():
         raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reading))
-    reason = implausible_texture(raw.heights, raw.dx, name)
-    if reason is not None:
-        if reading.get("dx") is not None and raw.dx > PLAUSIBLE_MAX_DX:
-            what = (f"The interval dx = {reading['dx']:g} given for it (manifest column dx, --input-dx) must be in "
-                    "metres (0.5 mm is 0.5e-3).")
-        else:
-            what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
-                    "--height-unit) where its header states none; a unit its header states wrongly must be "
-                    "corrected in the file (a unit given never overrides the header's).")
-        raise RunFailure("read", InvalidInputError(f"{reason} {what}"))
+    notes = plausibility_notes(raw.heights, raw.dx, name, raw.metadata, options, given_dx=reading.get("dx"))
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
@@ -219,7 +219,57 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
-    return tables
+    return {**tables, **notes}
+
+
+def resolves_a_band(dx: float, length: float, kind: str) -> bool:
+    """Whether a segment ``length`` (m) sampled every ``dx`` (m) reports any band of ``kind``
+    (one of fewer than 8 samples reports none)."""
+    try:
+        return bool(band_table(dx, length, kind)["reported"].any())
+    except InvalidInputError:   # too few samples for a spectrum
+        return False
+
+
+#: Where a user allows what plausibility refuses (the message's last words).
+ALLOW_IMPLAUSIBLE = "--allow-implausible (ProcessingOptions.allow_implausible) processes it as read"
+
+
+def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict[str, Any], options: ProcessingOptions,
+                       *, given_dx: object = None, row: str = "segment") -> dict[str, str | None]:
+    """Judges a run's heights (m; rows of ``row``) and interval ``dx`` (m) as read from file ``name``
+    (``metadata``: the reader's, which says whether the distances' unit is certain): raises the run's
+    failure at "read" when they cannot be road texture in metres (a unit mistake, with what to do),
+    unless ``options.allow_implausible``; else returns the notes the job warns with after the runs
+    (:func:`roadtex.archive.job.process`): ``implausible_note`` (processed as read although
+    implausible) and ``sampling_note`` (an interval above PLAUSIBLE_MAX_DX, processed), each None
+    when there is nothing to say. A file whose distance unit is certain is never refused for its
+    interval alone; a file sampled so coarsely that no band of a segment is resolved is refused
+    (nothing could be reported), whatever its unit."""
+    stated = stated_distance_unit(metadata)
+    reason = implausible_texture(heights, dx, name, row=row, interval_stated=stated is not None)
+    if reason is not None and not options.allow_implausible:
+        if given_dx is not None and dx > PLAUSIBLE_MAX_DX:
+            what = (f"The interval dx = {given_dx:g} given for it (manifest column dx, --input-dx) must be in "
+                    "metres (0.5 mm is 0.5e-3).")
+        else:
+            what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
+                    "--height-unit) where its header states none; a unit its header states wrongly must be "
+                    "corrected in the file (a unit given never overrides the header's).")
+        raise RunFailure("read", InvalidInputError(f"{reason} {what} If the file is right as read, {ALLOW_IMPLAUSIBLE}."))
+    note = coarse_sampling(dx, name, stated)
+    if note is not None and not resolves_a_band(dx, options.segment_length, options.band_kind):
+        # nothing its sampling resolves: solving it would report nothing (a 0.5 m interval is
+        # usually distances in mm given as m, whatever unit was stated)
+        unit = f"its distances' unit: {stated}" if stated else "its distances read as metres"
+        raise RunFailure("read", InvalidInputError(
+            f"{name}: sampled every {dx:.4g} m ({unit}), which resolves no {options.band_kind.replace('_', '-')} "
+            f"band of segments of {options.segment_length:g} m (a band needs 2.5 samples a wavelength and 12 "
+            "wavelengths a segment): nothing could be reported. Were its distances in millimetres? Give the unit "
+            "that is right (manifest column distance_unit, --distance-unit; a header's unit must be corrected in "
+            "the file), or longer segments (--segment-length)."))
+    return {"implausible_note": None if reason is None else f"{reason} Processed as read (--allow-implausible).",
+            "sampling_note": note}
 
 
 def model_levels(values: np.ndarray, model_dx: float, bands: pl.DataFrame, options: ProcessingOptions,

@@ -75,6 +75,12 @@ class ProcessingOptions:
             normative method; see :func:`roadtex.spectra.band_levels`).
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
         keep_profiles: also write the enveloped profiles and pressures (large).
+        allow_implausible: process runs whose heights or sampling interval cannot be road texture
+            in metres (usually a unit mistake; see :func:`roadtex.profiles.plausibility.implausible_texture`)
+            as read, with a warning, instead of refusing them. A run whose distance unit is certain
+            (OpenCRG, a unit its header states, or ``distance_unit`` given) is never refused for a
+            coarse interval alone: it is processed with a
+            :class:`~roadtex.errors.CoarseSamplingWarning`, its unresolved bands not reported.
         reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
             ``height_unit``, ``delimiter``, ``decimal``, ``dx`` in m, ...); manifest columns of the
             same names override them per run.
@@ -98,6 +104,7 @@ class ProcessingOptions:
     band_method: str = "dft"
     speed_kmh: float | None = None
     keep_profiles: bool = False
+    allow_implausible: bool = False
     reader_defaults: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:

@@ -31,7 +31,7 @@ import polars as pl
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
 from roadtex.budget import choose_setting
 from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
-from roadtex.profiles.plausibility import implausible_texture, judged_once
+from roadtex.profiles.plausibility import implausible_texture, judged_once, stated_distance_unit
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
 
@@ -166,7 +166,7 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
 def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
     """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
-    texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
+    texture in metres (or any, with ``options.allow_implausible``), with their profiles. A sampled run that is not is recorded in ``unread``
     (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
     stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
     picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
@@ -184,8 +184,9 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
             except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
                 unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
                 continue
-            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
-            if reason is not None:
+            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]),
+                                         interval_stated=stated_distance_unit(profile.metadata) is not None)
+            if reason is not None and not options.allow_implausible:   # else solved as read, as the run is
                 unread[str(run["run_id"])] = reason
                 continue
             read.append((run, profile))
