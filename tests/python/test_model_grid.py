@@ -135,7 +135,7 @@ def small_archive(folder: Path, dx: float) -> Path:
         profile = roadtex.synthetic_pavement(kind, 0.6, dx, seed=10 + i)
         path = folder / f"{kind}.npy"
         np.save(path, profile.heights)
-        rows.append({"path": str(path), "run_id": kind, "dx": dx})
+        rows.append({"path": str(path), "run_id": kind, "dx": dx, "pavement": kind})
     manifest = folder / "manifest.csv"
     pl.DataFrame(rows).write_csv(manifest)
     return manifest
@@ -182,3 +182,29 @@ def test_forced_refine_without_budget_solves_on_the_finer_grid(tmp_path: Path) -
     got = job["enveloped_level"].to_numpy()
     finite = np.isfinite(expected)
     np.testing.assert_allclose(got[finite], expected[finite], atol=1e-9)
+
+
+def test_each_run_is_solved_on_its_own_groups_model_grid(tmp_path: Path) -> None:
+    # converged levels do not depend on the grid, so each pilot group keeps its own (cheapest) one:
+    # a 1 mm group and a 0.25 mm group, the job's data interval the finer one's
+    import json
+
+    rows = []
+    for kind, dx in (("cement_concrete", 1e-3), ("porous_asphalt", 0.25e-3)):
+        path = tmp_path / f"{kind}.npy"
+        np.save(path, roadtex.synthetic_pavement(kind, 0.6, dx, seed=4).heights)
+        rows.append({"path": str(path), "run_id": kind, "dx": dx, "pavement": kind})
+    pl.DataFrame(rows).write_csv(tmp_path / "manifest.csv")
+    options = ProcessingOptions(youngs_moduli=tuple(MODULI), segment_length=0.2, spike_alpha=None)
+    process(tmp_path / "manifest.csv", tmp_path / "out", options, quiet=True)
+    plan = json.loads((tmp_path / "out" / "parameters.json").read_text())["plan"]
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
+    model_dx = {group["key"].split(" / ")[1]: group["model_dx"] for group in plan["group_errors"].values()}
+    assert set(model_dx) == {"cement_concrete", "porous_asphalt"}
+    refines = set()
+    for run in runs.iter_rows(named=True):
+        assert run["dx_used"] == pytest.approx(0.25e-3)   # one data interval for the job
+        expected = int(np.ceil(run["dx_used"] / model_dx[run["run_id"]] - 1e-9))
+        assert run["refine"] == expected, (run["run_id"], run["refine"], expected)
+        refines.add(run["refine"])
+    assert len(refines) == 2 and max(refines) == plan["refine"]   # not the job's finest for every run

@@ -9,7 +9,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import reader_options
+from roadtex.archive.plan import reader_options, run_refine
 from roadtex.archive.schemas import (
     EXAMPLE_SCHEMA,
     METADATA_COLUMNS,
@@ -78,7 +78,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
     """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing
     written) and its notes on plausibility (strings or None, see :func:`plausibility_notes`).
 
-    The contact model solves each segment on a grid ``options.refine`` times finer than ``dx``
+    The contact model solves each segment on a grid finer than ``dx`` (its pilot group's model
+    grid, :func:`~roadtex.archive.plan.run_refine`)
     (the readings joined by ``options.interpolant``, :mod:`roadtex.models.grid`); its enveloped
     and pressure levels are taken on that grid in the data's bands; texture levels are the data's.
     ``options.dx``, ``options.tol`` and ``options.refine`` must be set (the job's plan fills them in:
@@ -113,7 +114,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
     moduli = np.asarray(options.youngs_moduli)
     n_moduli = moduli.size
     dx = segments.dx
-    refine = options.refine
+    refine = run_refine(run, raw.dx, dx, options)
     model_dx = dx / refine
     speed = run.get("speed_kmh")
     speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed

@@ -54,7 +54,8 @@ class GroupError:
             that band for the group's runs at the job's setting.
         worst_error_db: the largest of those in the budget bands (dB).
         within_budget: whether that is within the budget.
-        refine: the model grid refinement the pilot chose for the group (the job's may be finer).
+        refine: the model grid refinement the pilot chose for the group.
+        model_dx: the group's model grid interval (m): its runs are solved on it.
         interpolant_spread_db: band number -> what the group's sampling cannot tell (dB): the
             spread of the converged levels between interpolants of the readings.
     """
@@ -66,6 +67,7 @@ class GroupError:
     within_budget: bool
     refine: int = 1
     interpolant_spread_db: dict[int, float] = field(default_factory=dict)
+    model_dx: float | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,8 @@ class JobPlan:
         """``options`` with the plan's interval, refinement and tolerance filled in (what the runs
         are solved with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
         return dataclasses.replace(options, dx=self.dx, tol=self.tol, refine=self.refine,
+                                   group_model_dx=tuple((g.key, g.spacing, g.model_dx) for g in self.group_errors.values()
+                                                        if g.model_dx is not None),
                                    tol_from_budget=options.tol is None and options.error_budget_db is not None)
 
     def summary(self) -> dict[str, Any]:
@@ -198,6 +202,16 @@ def group_key(run: dict[str, Any]) -> str:
     return f"{run.get('device') or 'any device'} / {run.get('pavement') or 'any pavement'}"
 
 
+def run_refine(run: dict[str, Any], file_dx: float, dx: float, options: ProcessingOptions) -> int:
+    """The model grid refinement of a line run (file sampled every ``file_dx`` m, conditioned to
+    ``dx`` m): its pilot group's model grid (``options.group_model_dx``), else ``options.refine``."""
+    key, spacing = group_key(run), float(f"{file_dx:.2g}")
+    for group, group_spacing, model_dx in options.group_model_dx:
+        if group == key and group_spacing == spacing:
+            return max(1, int(np.ceil(dx / model_dx * (1.0 - 1e-9))))
+    return int(options.refine or 1)
+
+
 def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads: int | None = None) -> tuple[JobPlan, pl.DataFrame]:
     """Chooses the job's sampling interval and tolerance (see the module docstring).
 
@@ -248,6 +262,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
             group_errors[name] = GroupError(key=key, spacing=spacing, band_error_db=dict(choice.band_error_db),
                                             worst_error_db=float(choice.worst_error_db),
                                             within_budget=bool(choice.within_budget), refine=choice.refine,
+                                            model_dx=float(choice.model_dx),
                                             interpolant_spread_db=dict(choice.interpolant_spread_db))
             studies.append(choice.study.with_columns(
                 pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("refine") == choice.refine)
