@@ -389,7 +389,9 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
     values = [d.mpd for d in depths if np.isfinite(d.mpd)]
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "points": [surface.heights.size],
+        # a surface run is solved at its own spacings: no model grid apart from the data's (yet)
+        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "refine": [1], "model_dx": [surface.dx],
+        "points": [surface.heights.size],
         "raw_length": [raw.length], "trimmed_length": [0.0], "length": [surface.length], "plates": ["none"],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
         "outlier_fraction": [cleaning.outlier_fraction],
