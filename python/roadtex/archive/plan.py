@@ -87,7 +87,7 @@ class JobPlan:
         interpolant_spread_db: band number -> the largest spread (dB) of any group's converged
             levels between interpolants of the readings: what the sampling cannot tell.
         seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
-        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
         speedup: the finest setting's work over the chosen one's (iterations x N log2 N per metre,
             the pilots' count: unlike the times, the machine's load does not change it).
         pilot_seconds: wall time of the pilots (s).

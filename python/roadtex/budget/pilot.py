@@ -56,7 +56,7 @@ class BudgetChoice:
         budget_bands: the band numbers the budget applies to (see :mod:`roadtex.budget.noise`).
         worst_error_db: the largest ``band_error_db`` over the budget bands (dB).
         seconds_per_metre: measured solve time at (dx, tol), every modulus, per metre of road (s/m).
-        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
         pilot_seconds: wall time of the whole pilot (s).
         forced: whether dx or tol was forced.
         study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
@@ -90,7 +90,7 @@ class BudgetChoice:
 
     @property
     def speedup(self) -> float:
-        """finest_seconds_per_metre / seconds_per_metre: how much cheaper the run is than at full resolution."""
+        """finest_seconds_per_metre / seconds_per_metre: how much cheaper the run is than at the reference (the converged grid)."""
         return self.finest_seconds_per_metre / self.seconds_per_metre
 
 
