@@ -170,8 +170,8 @@ def run_estimates_are_their_groups(out: Path) -> bool:
 def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) -> None:
     """Runs at 0.25 and 0.5 mm get a pilot each; every run's rows state its own group's estimates,
     not the largest over the groups (the 0.5 mm group's floor used to be stamped on the 0.25 mm run).
-    On the model grid both groups meet the budget, each with its own k; the job solves every run on
-    the finest model grid any group needs, on the job's one dx."""
+    On the model grid both groups meet the budget, each with its own k; the job conditions every run
+    to its one dx and solves each on its own group's model grid."""
     folder, _ = mixed
     out = tmp_path / "budget"
     with warnings.catch_warnings():
@@ -183,7 +183,10 @@ def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) 
     finest = min(g["spacing"] / g["refine"] for g in plan["group_errors"].values())
     assert plan["dx"] / plan["refine"] <= finest * (1 + 1e-9) and plan["refine"] > 1
     runs = pl.read_parquet(out / "runs.parquet")
-    assert runs["refine"].to_list() == [plan["refine"]] * runs.height
+    model_dx = {g["spacing"]: g["model_dx"] for g in plan["group_errors"].values()}
+    for run in runs.iter_rows(named=True):
+        assert run["refine"] == int(np.ceil(plan["dx"] / model_dx[float(f"{run['file_dx']:.2g}")] - 1e-9))
+    assert max(runs["refine"]) == plan["refine"]
     assert run_estimates_are_their_groups(out), "every run got the largest estimate of any group"
 
 
