@@ -23,6 +23,7 @@ from roadtex.budget import BudgetChoice, choose_setting, convergence_study
 from roadtex.errors import (
                             ArchiveWriteError,
                             ClappError,
+                            CoarseSamplingWarning,
                             ConditioningWarning,
                             ConvergenceError,
                             ErrorBudgetWarning,
@@ -70,14 +71,14 @@ from roadtex.spectra import (
                             time_frequency,
                             with_time_frequency,
 )
-from roadtex.surfaces import Surface, read_surface, synthetic_surface
+from roadtex.surfaces import Surface, read_surface, sett_surface, synthetic_surface
 
 __all__ = [
     "__version__", "errors",
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
-    "ErrorBudgetWarning", "UnitConflictWarning",
+    "ErrorBudgetWarning", "UnitConflictWarning", "CoarseSamplingWarning",
     "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
     "SurfaceBatch", "SurfaceResult", "contact_surface", "contact_surface_many",
     "comparisons", "reference",
@@ -87,5 +88,5 @@ __all__ = [
     "BudgetChoice", "choose_setting", "convergence_study",
     "ProcessingOptions", "build_manifest", "process", "read_manifest", "read_profiles", "build_report",
     "Profile", "Segments", "read_profile", "write_profile", "MpdResult", "mpd", "synthetic_pavement",
-    "pavements", "synthetic", "Surface", "read_surface", "synthetic_surface",
+    "pavements", "synthetic", "Surface", "read_surface", "synthetic_surface", "sett_surface",
 ]

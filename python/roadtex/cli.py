@@ -86,8 +86,10 @@ def process_command(args: argparse.Namespace) -> int:
             poisson=args.poisson, segment_length=args.segment_length, segment_overlap=args.overlap,
             dx=args.dx, spike_alpha=None if args.spike_alpha <= 0 else args.spike_alpha,
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
+            refine=args.refine, interpolant=args.interpolant,
             error_budget_db=error_budget(args.error_budget),
             band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
+            allow_implausible=args.allow_implausible,
             reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
         with warnings.catch_warnings():
             # the plausibility of E and P was settled above (--allow-implausible)
@@ -220,8 +222,11 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"mean contact pressure P in MPa (default {defaults.mean_pressure / 1e6:g}; "
                              "outside 0.02 to 3 MPa refused unless --allow-implausible)")
     parser.add_argument("--allow-implausible", action="store_true",
-                        help="solve for E and P outside the plausible ranges, and --dx, --input-dx above 5 mm "
-                             "(they are usually unit mistakes)")
+                        help="solve for E and P outside the plausible ranges, with --dx, --input-dx above 5 mm, "
+                             "and process files whose heights or interval cannot be road texture in metres "
+                             "(they are usually unit mistakes; such runs are refused without it). Files whose "
+                             "distance unit is certain (OpenCRG, a unit in the header, --distance-unit) are "
+                             "processed above 5 mm without it, with a warning, their unresolved bands not reported")
     parser.add_argument("--poisson", type=float, default=defaults.poisson, help="rubber Poisson ratio (default 0.5)")
     parser.add_argument("--segment-length", type=float, default=defaults.segment_length, metavar="M",
                         help="segment length in m for the periodic contact model (default 0.5)")
@@ -241,6 +246,12 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
                              "'off' switches it off)")
     parser.add_argument("--tol", type=float, default=None,
                         help="solver tolerance (default: chosen by the error budget; 1e-6 with --error-budget off)")
+    parser.add_argument("--refine", type=int, default=None, metavar="K",
+                        help="solve the contact model on a grid K times finer than the data's, the readings joined "
+                             "by --interpolant (default: chosen by the error budget; 1 with --error-budget off); "
+                             "still estimated")
+    parser.add_argument("--interpolant", choices=["linear", "pchip", "bandlimited"], default=defaults.interpolant,
+                        help="the road between readings on the model's finer grid (default linear)")
     parser.add_argument("--bands", choices=["third_octave", "octave"], default=defaults.band_kind,
                         help="band kind of the spectra (default third_octave)")
     parser.add_argument("--band-method", choices=["dft", "filter"], default=defaults.band_method,

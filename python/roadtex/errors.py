@@ -75,6 +75,12 @@ class ImplausibleTextureWarning(RoadtexWarning):
     """Heights that cannot be a road texture in metres (usually heights in mm or um given as m)."""
 
 
+class CoarseSamplingWarning(RoadtexWarning):
+    """A file sampled more coarsely than texture profilometers sample (above 5 mm), whose distance
+    unit is certain (OpenCRG, a unit its header states, or one given for it): processed as read, and
+    only the bands its sampling resolves are reported."""
+
+
 class ImplausibleParameterWarning(RoadtexWarning):
     """A modulus, pressure or sampling interval far outside what tyres and road profiles have
     (usually a unit mistake: MPa given as Pa, mm as m)."""
@@ -99,5 +105,6 @@ __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
+    "CoarseSamplingWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",
 ]

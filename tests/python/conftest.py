@@ -46,3 +46,42 @@ def captif_dir() -> Path:
 def captif_file(request: pytest.FixtureRequest, captif_dir: Path) -> Path:
     """Each real CAPTIF file in turn (a test taking it runs once per file); skips as captif_dir does."""
     return captif_dir / request.param
+
+
+@pytest.fixture(scope="session")
+def report_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The synthetic archive's results, one run failing (report_pages.synthetic_results), processed
+    once for every report test module."""
+    from report_pages import synthetic_results
+
+    return synthetic_results(tmp_path_factory.mktemp("report"))
+
+
+@pytest.fixture(scope="session")
+def report_built(report_results: Path, tmp_path_factory: pytest.TempPathFactory):
+    """The report of ``report_results``, with the benchmark rows of report_pages.BENCHMARK."""
+    import json
+
+    from report_pages import BENCHMARK
+    from roadtex.report import build_report
+
+    benchmark = tmp_path_factory.mktemp("bench") / "rows.json"
+    benchmark.write_text(json.dumps(BENCHMARK))
+    return build_report(report_results, benchmark=benchmark)
+
+
+@pytest.fixture(scope="session")
+def report_drawn(report_results: Path):
+    """The report's matplotlib figures of ``report_results``, drawn (so that every extent is known),
+    closed afterwards."""
+    from report_pages import BENCHMARK
+    from roadtex.report import draw_figures
+    from roadtex.report.data import load_results, pyplot
+
+    plt = pyplot()
+    figures, _ = draw_figures(load_results(report_results), BENCHMARK)
+    for fig in figures.values():
+        fig.canvas.draw()
+    yield figures
+    for fig in figures.values():
+        plt.close(fig)

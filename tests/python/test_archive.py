@@ -161,13 +161,19 @@ def test_segment_rows_hold_physics_that_could_fail(reference: Path) -> None:
 
 
 def test_segment_values_match_a_direct_call_of_the_core(archive: Path, reference: Path) -> None:
-    """The job's numbers are those of roadtex.contact on the same conditioned segment."""
+    """The job's numbers are those of roadtex.contact on the same conditioned segment, its readings
+    joined by straight lines on the model grid the job states (runs.parquet: refine, model_dx)."""
     from roadtex.profiles import read_profile
 
     table = read_manifest(archive)
-    profile = read_profile(table["path"][1]).conditioned(dx=OPTIONS.dx, spike_alpha=OPTIONS.spike_alpha)
+    run = pl.read_parquet(reference / "runs.parquet").filter(pl.col("run_id") == "run01")
+    dx, refine = run["dx_used"].item(), run["refine"].item()
+    assert run["model_dx"].item() == pytest.approx(dx / refine)
+    profile = read_profile(table["path"][1]).conditioned(dx=dx, spike_alpha=OPTIONS.spike_alpha)
     segment = profile.segments(OPTIONS.segment_length, OPTIONS.segment_overlap).heights[2]
-    r = roadtex.contact(segment, profile.dx, 1e7, OPTIONS.mean_pressure, tol=OPTIONS.tol)
+    n = segment.size
+    road = np.interp(np.arange(n * refine) / refine, np.arange(n + 1), np.append(segment, segment[0]))
+    r = roadtex.contact(road, profile.dx / refine, 1e7, OPTIONS.mean_pressure, tol=OPTIONS.tol)
     row = pl.read_parquet(reference / "segments.parquet").filter(
         (pl.col("run_id") == "run01") & (pl.col("segment") == 2) & (pl.col("youngs_modulus") == 1e7))
     assert row["contact_fraction"].item() == pytest.approx(r.contact_fraction)

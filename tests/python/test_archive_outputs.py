@@ -8,6 +8,7 @@ import dataclasses
 import json
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -138,14 +139,10 @@ def test_build_manifest_lists_opencrg_surfaces_beside_profiles(tmp_path: Path, c
     assert sorted(Path(p).name for p in table["path"]) == ["lane.crg", "station.dat"]
 
 
-def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) -> None:
-    """Runs at 0.25 and 0.5 mm get a pilot each; every run's rows state its own group's estimates,
-    not the largest over the groups (the 0.5 mm group's floor used to be stamped on the 0.25 mm run)."""
-    folder, _ = mixed
-    out = tmp_path / "budget"
-    with pytest.warns(roadtex.errors.ErrorBudgetWarning, match="@ 0.5 mm"):
-        summary = process(folder / "manifest.csv", out, OPTIONS, quiet=True)
-    assert summary.failed_on_record == 0
+def run_estimates_are_their_groups(out: Path) -> bool:
+    """Asserts that every run's rows state its own group's estimates (worst error, verdict, error
+    and interpolant spread per band, sampling_limited where the spread exceeds the budget), not the
+    largest over the groups; returns whether some run's estimate is below the largest."""
     plan = json.loads((out / "parameters.json").read_text())["plan"]
     groups = plan["group_errors"]
     assert sorted(g["spacing"] for g in groups.values()) == [0.25e-3, 0.5e-3]
@@ -157,12 +154,58 @@ def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) 
         group = by_spacing[float(f"{run['file_dx']:.2g}")]
         assert run["worst_level_error_db"] == group["worst_error_db"]
         assert run["within_budget"] == group["within_budget"]
-        stated = dict(bands.filter(pl.col("run_id") == run["run_id"]).select("band", "level_error_db").unique().iter_rows())
+        mine = bands.filter(pl.col("run_id") == run["run_id"])
+        stated = dict(mine.select("band", "level_error_db").unique().iter_rows())
         expected = {int(b): e for b, e in group["band_error_db"].items() if np.isfinite(e)}
         assert stated == {b: expected[b] for b in stated} and stated
+        spread = dict(mine.select("band", "interpolant_spread_db").unique().iter_rows())
+        assert spread == {b: group["interpolant_spread_db"][str(b)] for b in spread} and len(spread) == len(stated)
+        limited = dict(mine.select("band", "sampling_limited").unique().iter_rows())
+        assert limited == {b: spread[b] > plan["budget_db"] for b in spread}
         largest = {int(b): e for b, e in plan["band_error_db"].items()}
         differs |= any(stated[b] < largest[b] for b in stated)
-    assert differs, "every run got the largest estimate of any group"
+    return differs
+
+
+def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) -> None:
+    """Runs at 0.25 and 0.5 mm get a pilot each; every run's rows state its own group's estimates,
+    not the largest over the groups (the 0.5 mm group's floor used to be stamped on the 0.25 mm run).
+    On the model grid both groups meet the budget, each with its own k; the job conditions every run
+    to its one dx and solves each on its own group's model grid."""
+    folder, _ = mixed
+    out = tmp_path / "budget"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", roadtex.errors.ErrorBudgetWarning)
+        summary = process(folder / "manifest.csv", out, OPTIONS, quiet=True)
+    assert summary.failed_on_record == 0
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    assert plan["within_budget"] is True and all(g["within_budget"] for g in plan["group_errors"].values())
+    finest = min(g["spacing"] / g["refine"] for g in plan["group_errors"].values())
+    assert plan["dx"] / plan["refine"] <= finest * (1 + 1e-9) and plan["refine"] > 1
+    runs = pl.read_parquet(out / "runs.parquet")
+    model_dx = {g["spacing"]: g["model_dx"] for g in plan["group_errors"].values()}
+    for run in runs.iter_rows(named=True):
+        assert run["refine"] == int(np.ceil(plan["dx"] / model_dx[float(f"{run['file_dx']:.2g}")] - 1e-9))
+    assert max(runs["refine"]) == plan["refine"]
+    assert run_estimates_are_their_groups(out), "every run got the largest estimate of any group"
+
+
+def test_a_group_that_misses_the_budget_is_warned_and_its_runs_say_so(mixed, tmp_path: Path) -> None:
+    """Forced onto the data's own grid (refine 1), the 0.5 mm group misses the budget: the warning
+    names it, the runs are solved at k = 1, and each run still carries its own group's estimates and
+    verdict."""
+    folder, _ = mixed
+    out = tmp_path / "forced"
+    with pytest.warns(roadtex.errors.ErrorBudgetWarning, match="@ 0.5 mm"):
+        summary = process(folder / "manifest.csv", out, dataclasses.replace(OPTIONS, refine=1), quiet=True)
+    assert summary.failed_on_record == 0
+    plan = json.loads((out / "parameters.json").read_text())["plan"]
+    assert plan["refine"] == 1 and plan["within_budget"] is False
+    assert {g["spacing"]: g["within_budget"] for g in plan["group_errors"].values()}[0.5e-3] is False
+    assert {g["refine"] for g in plan["group_errors"].values()} == {1}
+    runs = pl.read_parquet(out / "runs.parquet")
+    assert runs["refine"].to_list() == [1] * runs.height and runs["model_dx"].to_list() == runs["dx_used"].to_list()
+    run_estimates_are_their_groups(out)
 
 
 def test_the_pilot_skips_runs_the_job_refuses_for_their_units(mixed, tmp_path: Path) -> None:

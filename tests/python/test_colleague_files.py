@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 import roadtex
-from roadtex.errors import ImplausibleTextureWarning, ProfileFormatError
+from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ProfileFormatError
 from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, PLAUSIBLE_MIN_RMS
 
 N = 400
@@ -114,9 +114,16 @@ def test_unit_mistakes_in_a_file_are_warned_about_by_the_reader(tmp_path: Path) 
     # heights in mm said to be micrometres: 1000 times too small for any road
     with pytest.warns(ImplausibleTextureWarning, match=r"bare\.csv: rms height .* implausibly small.*millimetres read as micrometres"):
         roadtex.read_profile(path, height_unit="um", distance_unit="mm")
-    # distances in mm said to be metres: a 0.5 m sampling interval
-    with pytest.warns(ImplausibleTextureWarning, match=r"bare\.csv: a sampling interval of 0\.5 m is implausibly coarse"):
+    # distances in mm said to be metres: a 0.5 m sampling interval, read as stated (a unit given is
+    # certain: issue 34), but not a texture interval
+    with pytest.warns(CoarseSamplingWarning, match=r"bare\.csv: sampled every 500 mm.*unit is m \(given for the "
+                      r"file\).*resolves no texture wavelength.*were its distances in millimetres\?"):
         roadtex.read_profile(path, height_unit="mm", distance_unit="m")
+    # the same without a unit: a .npy's metres are assumed, and the reader asks
+    np.save(tmp_path / "bare.npy", np.column_stack([x, z * 1e-3]))
+    with pytest.warns(ImplausibleTextureWarning, match=r"bare\.npy: a sampling interval of 0\.5 m is implausibly coarse"
+                      r".*were they given in millimetres\?"):
+        roadtex.read_profile(tmp_path / "bare.npy")
 
 
 def test_the_file_limits_leave_model_problems_to_the_solvers() -> None:
@@ -149,7 +156,9 @@ def test_the_job_refuses_a_unit_mistake_and_processes_the_rest(tmp_path: Path) -
     errors = pl.read_parquet(tmp_path / "results" / "errors.parquet").sort("run_id")
     assert errors["run_id"].to_list() == ["said_metres", "said_micrometres"]
     assert errors["stage"].to_list() == ["read", "read"]
-    assert "said_metres.csv: a sampling interval of 0.5 m is implausibly coarse" in errors["message"][0]
+    # a unit given is certain (issue 34), but 0.5 m resolves no band of the job's 0.5 m segments
+    assert "said_metres.csv: sampled every 0.5 m (its distances' unit: m (given for the file)), which resolves no" in errors["message"][0]
+    assert "Were its distances in millimetres?" in errors["message"][0]
     assert "said_micrometres.csv: rms height" in errors["message"][1] and "implausibly small" in errors["message"][1]
     runs = pl.read_parquet(tmp_path / "results" / "runs.parquet")
     assert runs["run_id"].to_list() == ["good"] and runs["dx_used"][0] == pytest.approx(0.5e-3)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from roadtex.errors import ConditioningWarning
 from roadtex.profiles import Profile, read_profile, write_profile
+from roadtex.profiles.plausibility import DISTANCE_UNIT_STATED
 
 
 def wavy(n: int = 2000, dx: float = 0.5e-3, amplitude: float = 1e-3, wavelength: float = 10e-3) -> Profile:
@@ -531,7 +532,10 @@ def test_write_then_read_gives_back_the_same_profile(tmp_path, name):
     np.testing.assert_array_equal(back.positions, original.positions)
     np.testing.assert_array_equal(back.heights, original.heights)
     assert back.dx == original.dx
-    assert {k: v for k, v in back.metadata.items() if k not in ("format", "source")} == metadata
+    # the keys the reader adds: the format, the file, and where the distances' unit came from (all
+    # four formats written state metres)
+    assert {k: v for k, v in back.metadata.items() if k not in ("format", "source", DISTANCE_UNIT_STATED)} == metadata
+    assert str(back.metadata[DISTANCE_UNIT_STATED]).startswith("m (")
     assert back.history[:-1] == original.history
 
 

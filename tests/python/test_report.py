@@ -9,7 +9,6 @@ import re
 import shutil
 import subprocess
 import sys
-from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
@@ -17,73 +16,27 @@ import polars as pl
 import pytest
 from matplotlib import image
 
+from report_pages import WellFormed, column, parse, text_without_images
 from roadtex.archive import ProcessingOptions, process
 from roadtex.demo import write_synthetic_archive
-from roadtex.report import FIGURES, SEED_FIGURES, build_report, draw_figures, octave_table
-from roadtex.report.data import load_results, modulus_label, plain, pyplot
-
-VOID = {"meta", "img", "br", "hr", "link", "input"}
-
-
-class WellFormed(HTMLParser):
-    """Checks that every element closes in order and collects the figures and images."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.stack: list[str] = []
-        self.problems: list[str] = []
-        self.figures: list[str] = []
-        self.images: list[str] = []
-
-    def handle_starttag(self, tag, attrs):
-        attributes = dict(attrs)
-        if tag == "figure":
-            self.figures.append(attributes.get("id", ""))
-        if tag == "img":
-            self.images.append(attributes.get("src", ""))
-        if tag not in VOID:
-            self.stack.append(tag)
-
-    def handle_startendtag(self, tag, attrs):
-        self.handle_starttag(tag, attrs)
-        if tag not in VOID:
-            self.stack.pop()
-
-    def handle_endtag(self, tag):
-        if tag in VOID:
-            return
-        if not self.stack or self.stack[-1] != tag:
-            self.problems.append(f"</{tag}> closes <{self.stack[-1] if self.stack else 'nothing'}>")
-        else:
-            self.stack.pop()
+from roadtex.report import FIGURES, SEED_FIGURES, build_report, octave_table
+from roadtex.report.data import load_results, modulus_label, plain
 
 
 @pytest.fixture(scope="module")
-def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The synthetic archive plus one run whose file is empty: it fails at the read stage."""
-    folder = tmp_path_factory.mktemp("report")
-    manifest = write_synthetic_archive(folder / "archive", runs_per_kind=2, run_length=1.0)
-    (manifest.parent / "broken_001.csv").write_text("")
-    table = pl.read_csv(manifest)
-    broken = {**table.row(0, named=True), "path": "broken_001.csv", "run_id": "broken_001", "site": "broken"}
-    with_broken = manifest.parent / "with_broken.csv"
-    pl.concat([table, pl.DataFrame([broken], schema=table.schema)]).write_csv(with_broken)
-    options = ProcessingOptions(youngs_moduli=(1e6, 5e6), segment_length=0.25, tol=1e-8)
-    summary = process(with_broken, folder / "results", options, quiet=True)
-    assert summary.failed == 1 and summary.processed == 6
-    return folder / "results"
-
-
-BENCHMARK = {"meta": {}, "rows": [
-    {"case": "westergaard", "solver": solver, "time_s": t * scale, "l1_error": e / scale}
-    for solver, t in (("roadtex-element", 0.01), ("tamaas", 0.2)) for scale, e in ((1, 1e-5), (4, 2e-6), (16, 3e-7))]}
+def results(report_results: Path) -> Path:
+    """The synthetic archive plus one run whose file is empty (conftest, once per session)."""
+    return report_results
 
 
 @pytest.fixture(scope="module")
-def report(results: Path, tmp_path_factory: pytest.TempPathFactory):
-    benchmark = tmp_path_factory.mktemp("bench") / "rows.json"
-    benchmark.write_text(json.dumps(BENCHMARK))
-    return build_report(results, benchmark=benchmark)
+def report(report_built):
+    return report_built
+
+
+@pytest.fixture(scope="module")
+def drawn(report_drawn):
+    return report_drawn
 
 
 def test_html_is_well_formed_self_contained_and_has_every_figure(report) -> None:
@@ -132,18 +85,62 @@ def octave_results(results: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 LEVELS = ("enveloped_level", "pressure_level", "texture_level")
 
 
-def test_octave_levels_sum_their_third_octaves(results: Path, octave_results: Path) -> None:
+def direct_octave_levels(loaded) -> pl.DataFrame:
+    """Per run, E and octave band, the run's levels computed straight from its file, independently
+    of the job's band path: read, conditioned and cut as the job does (as in test_archive_outputs'
+    bit-for-bit test), the segments' readings joined linearly by np.interp (periodic: the last
+    reading joins the first) onto the job's model grid (runs.parquet refine, model_dx), solved,
+    binned straight into octaves (enveloped and pressure on the model grid, texture on the data's)
+    and averaged over the segments in power."""
+    from roadtex import contact_many
+    from roadtex.profiles import read_profile
+    from roadtex.spectra import band_levels
+
+    options = loaded.options
+    moduli = list(options["youngs_moduli"])
+    rows = []
+    for run in loaded.runs.iter_rows(named=True):
+        profile = read_profile(run["path"]).conditioned(dx=run["dx_used"], spike_alpha=options["spike_alpha"])
+        segments = profile.segments(options["segment_length"])
+        count, n = segments.heights.shape
+        k, model_dx = run["refine"], run["model_dx"]
+        assert model_dx == pytest.approx(run["dx_used"] / k, rel=1e-12)
+        fine = np.arange(n * k) / k
+        model = np.stack([np.interp(fine, np.arange(n + 1), np.append(h, h[0])) for h in segments.heights])
+        batch = contact_many(model, model_dx, moduli, options["mean_pressure"], poisson=options["poisson"],
+                             tol=run["tol_used"], max_iterations=options["max_iterations"], warm_start=True,
+                             raise_on_nonconvergence=False)
+        kwargs = {"kind": "octave", "periodic": True, "method": options["band_method"]}
+        spectra = {
+            "enveloped_level": band_levels(batch.envelope.reshape(count * len(moduli), -1), model_dx, **kwargs),
+            "pressure_level": band_levels(batch.pressure.reshape(count * len(moduli), -1), model_dx,
+                                          reference=1.0, **kwargs),
+            "texture_level": band_levels(np.repeat(segments.heights, len(moduli), axis=0), segments.dx, **kwargs)}
+        for kind, levels in spectra.items():
+            power = np.mean(10.0 ** (levels.levels.reshape(count, len(moduli), -1) / 10.0), axis=0)
+            for m, e in enumerate(moduli):
+                rows += [(run["run_id"], float(e), band, kind, float(10.0 * np.log10(value)))
+                         for band, value in zip(levels.bands["band"].to_list(), power[m])]
+    return pl.DataFrame(rows, schema=["run_id", "youngs_modulus", "band", "column", "level"], orient="row").pivot(
+        "column", index=["run_id", "youngs_modulus", "band"], values="level")
+
+
+def test_octave_levels_sum_their_third_octaves(results: Path) -> None:
     """The report sums third octaves n-1, n, n+1 into octave n. By Parseval the octave holds exactly
-    the power of its three third octaves, so the octave table of the third-octave job equals that of
-    a job whose spectra were binned straight into octaves (the same solves, another band path)."""
-    from_thirds = octave_table(load_results(results))
-    from_octaves = octave_table(load_results(octave_results))
+    the power of its three third octaves, so the octave table of the third-octave job equals the
+    octave levels computed straight from the files on the job's model grid (the same road and
+    solves, another band path and another linear interpolation): this also checks that the job's
+    contact levels are those of the model grid it states in runs.parquet."""
+    loaded = load_results(results)
+    assert (loaded.runs["refine"] > 1).all(), "the budget refines the 0.5 mm archive's model grid"
+    from_thirds = octave_table(loaded)
     assert from_thirds.filter(pl.col("band") == 21).height > 0, "the 8 mm octave (band 21) is reported"
     keys = ["run_id", "youngs_modulus", "band"]
-    joined = from_thirds.join(from_octaves, on=keys, how="full", suffix="_direct")
-    assert joined.height == from_thirds.height == from_octaves.height
-    for column in LEVELS:
-        np.testing.assert_allclose(joined[column], joined[f"{column}_direct"], rtol=0, atol=1e-9, err_msg=column)
+    joined = from_thirds.join(direct_octave_levels(loaded), on=keys, how="left", suffix="_direct")
+    assert joined.height == from_thirds.height
+    for kind in LEVELS:
+        assert joined[f"{kind}_direct"].null_count() == 0, kind
+        np.testing.assert_allclose(joined[kind], joined[f"{kind}_direct"], rtol=0, atol=1e-9, err_msg=kind)
 
 
 def test_run_levels_are_energetic_means_of_the_segments(octave_results: Path) -> None:
@@ -158,11 +155,11 @@ def test_run_levels_are_energetic_means_of_the_segments(octave_results: Path) ->
     joined = table.join(per_segment, on=["run_id", "youngs_modulus", "band"], how="left")
     assert joined.height == table.height and (joined["segments"] >= 2).all()
     spread = 0
-    for column in LEVELS:
-        level, low, high = (joined[name].to_numpy() for name in (column, f"{column}_min", f"{column}_max"))
-        assert np.all((low - 1e-9 <= level) & (level <= high + 1e-9)), column
+    for kind in LEVELS:
+        level, low, high = (joined[name].to_numpy() for name in (kind, f"{kind}_min", f"{kind}_max"))
+        assert np.all((low - 1e-9 <= level) & (level <= high + 1e-9)), kind
         differ = high - low > 0.1
-        assert np.all(level[differ] > joined[f"{column}_db_mean"].to_numpy()[differ] + 1e-6), column
+        assert np.all(level[differ] > joined[f"{kind}_db_mean"].to_numpy()[differ] + 1e-6), kind
         spread += int(differ.sum())
     assert spread > 0, "no run whose segments differ: the Jensen check would be empty"
 
@@ -182,6 +179,19 @@ def test_main_job_runs_end_to_end(tmp_path: Path) -> None:
     assert "No failed runs" in (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
     segments = pl.read_parquet(tmp_path / "results" / "segments.parquet")
     assert set(segments["pavement"].unique()) == {"cement_concrete", "dense_asphalt", "porous_asphalt"}
+    # The line runs were solved on the plan's model grid, and the report says which, and whether the
+    # budget was met, as the job's outputs state it.
+    plan = json.loads((tmp_path / "results" / "parameters.json").read_text())["plan"]
+    runs = pl.read_parquet(tmp_path / "results" / "runs.parquet")
+    lines = runs.filter(pl.col("run_id").is_in(segments.filter(pl.col("model") == "line")["run_id"].unique().implode())
+                        & ~pl.col("run_id").is_in(segments.filter(pl.col("model") == "areal")["run_id"].unique().implode()))
+    assert lines.height == 3 and plan["refine"] > 1
+    assert lines["refine"].to_list() == [plan["refine"]] * 3
+    np.testing.assert_allclose(lines["model_dx"], lines["dx_used"] / plan["refine"], rtol=1e-12)
+    text = text_without_images(tmp_path / "report" / "report.html")
+    assert (f"Every line run was solved at dx = {plain(plan['dx'] * 1e3)} mm, k = {plan['refine']} "
+            f"(model grid {plain(plan['dx'] / plan['refine'] * 1e3)} mm)") in text
+    assert f"Within budget: {'yes' if plan['within_budget'] else 'no'}" in text
     # Run again on the same output: nothing to recompute.
     again = subprocess.run([sys.executable, "-m", "roadtex.cli", "demo", "--out", str(tmp_path), "--runs", "1",
                             "--run-length", "1.0", "--quiet"], capture_output=True, text=True, timeout=600)
@@ -191,72 +201,6 @@ def test_main_job_runs_end_to_end(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------------------------------
 # Issue 14: legends, numbering, failed runs, conditioning facts, units and level references
 # --------------------------------------------------------------------------------------------------
-
-class Tables(HTMLParser):
-    """The HTML's tables by class (header and rows of cell texts) and its figure captions."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.tables: dict[str, dict[str, list]] = {}
-        self.captions: list[str] = []
-        self.current: dict[str, list] | None = None
-        self.row: list[str] | None = None
-        self.text: list[str] | None = None
-
-    def handle_starttag(self, tag, attrs):
-        if tag == "table":
-            self.current = self.tables.setdefault(dict(attrs).get("class") or "", {"header": [], "rows": []})
-        elif tag == "tr":
-            self.row = []
-        elif tag in ("td", "th", "figcaption"):
-            self.text = []
-
-    def handle_data(self, data):
-        if self.text is not None:
-            self.text.append(data)
-
-    def handle_endtag(self, tag):
-        if tag in ("td", "th") and self.row is not None and self.text is not None:
-            self.row.append("".join(self.text))
-            self.text = None
-        elif tag == "figcaption" and self.text is not None:
-            self.captions.append("".join(self.text))
-            self.text = None
-        elif tag == "tr" and self.current is not None and self.row is not None:
-            if self.current["header"]:
-                self.current["rows"].append(self.row)
-            else:
-                self.current["header"] = self.row
-            self.row = None
-        elif tag == "table":
-            self.current = None
-
-
-def parse(path: Path) -> Tables:
-    parser = Tables()
-    parser.feed(path.read_text(encoding="utf-8"))
-    return parser
-
-
-def column(table: dict[str, list], heading: str) -> list[str]:
-    index = table["header"].index(heading)
-    return [row[index] for row in table["rows"]]
-
-
-def text_without_images(path: Path) -> str:
-    return re.sub(r'src="data:[^"]*"', "", path.read_text(encoding="utf-8"))
-
-
-@pytest.fixture(scope="module")
-def drawn(results: Path):
-    """The report's matplotlib figures, drawn (so that every extent is known), closed afterwards."""
-    plt = pyplot()
-    figures, _ = draw_figures(load_results(results), BENCHMARK)
-    for fig in figures.values():
-        fig.canvas.draw()
-    yield figures
-    for fig in figures.values():
-        plt.close(fig)
 
 
 def test_no_legend_lies_over_any_axes(drawn) -> None:
@@ -295,7 +239,6 @@ def test_every_level_axis_states_its_reference(drawn) -> None:
             assert "dB re 1 Pa" in label, label
         else:
             assert "texture" in label and "dB re 1 µm" in label, label
-
 
 def test_each_seed_figure_is_claimed_by_one_figure_only() -> None:
     """The INRETS report has one figure 4.4: a new figure (the areal model's) never claims it."""
@@ -367,13 +310,16 @@ def test_each_runs_conditioning_is_shown(report, results: Path) -> None:
     shares in %, MPD in mm with its validity and valid/all baselines."""
     runs = pl.read_parquet(results / "runs.parquet").sort("run_id")
     table = parse(report.html).tables["conditioning"]
-    for heading in ("file dx (mm)", "dx (mm)", "trimmed (mm)", "reference plates", "drop-outs (%)", "spikes (%)",
-                    "outliers (%)", "warnings", "MPD (mm)", "MPD valid", "valid MPD baselines"):
+    for heading in ("file dx (mm)", "dx (mm)", "k (model grid dx / k)", "model dx (mm)", "trimmed (mm)",
+                    "reference plates", "drop-outs (%)", "spikes (%)", "outliers (%)", "warnings", "MPD (mm)",
+                    "MPD valid", "valid MPD baselines"):
         assert heading in table["header"], heading
     order = np.argsort(column(table, "run_id"))
     shown = {h: [column(table, h)[i] for i in order] for h in table["header"]}
     assert shown["run_id"] == runs["run_id"].to_list()
     assert shown["dx (mm)"] == ["0.5"] * runs.height  # the archive is sampled at 0.5 mm
+    assert shown["k (model grid dx / k)"] == [str(k) for k in runs["refine"]] and (runs["refine"] > 1).all()
+    assert shown["model dx (mm)"] == [plain(0.5 / k) for k in runs["refine"]]
     assert shown["valid MPD baselines"] == [f"{v}/{n}" for v, n in runs.select("mpd_valid_baselines", "mpd_baselines").iter_rows()]
     assert shown["MPD valid"] == ["yes" if v else "no" for v in runs["mpd_valid"]]
     np.testing.assert_allclose([float(v) for v in shown["MPD (mm)"]], runs["mpd"].to_numpy() * 1e3, rtol=5e-3)
@@ -437,155 +383,3 @@ def test_unreported_bands_and_null_levels(results: Path, altered: dict, tmp_path
     changed = full.filter((pl.col("pressure_level") - pl.col("pressure_level_null")).abs() > 1e-9)
     assert changed.select("run_id", "band").rows() == [(band["run_id"], 21)]
     assert altered["report"].figures["pressure_vs_texture"][0].stat().st_size > 10_000
-
-
-# --------------------------------------------------------------------------------------------------
-# Issue 15: speed against error of the pilot's settings, and the numerical error of every band
-# --------------------------------------------------------------------------------------------------
-
-def worst_in_budget(pilot: pl.DataFrame) -> pl.DataFrame:
-    """Per group and setting, the largest level error over the budget bands and the time per km."""
-    return (pilot.filter(pl.col("in_budget")).group_by("group", "dx", "tol")
-            .agg(pl.col("level_error_db").max().alias("worst"), (pl.col("seconds_per_metre").first() * 1e3).alias("s_km"),
-                 pl.col("chosen").first(), pl.col("reference").first()))
-
-
-@pytest.fixture(scope="module")
-def budget_off(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """The synthetic archive processed with the error budget off, and its report."""
-    folder = tmp_path_factory.mktemp("budget_off")
-    manifest = write_synthetic_archive(folder / "archive", runs_per_kind=1, run_length=1.0)
-    options = ProcessingOptions(youngs_moduli=(1e6,), segment_length=0.25, tol=1e-8, error_budget_db=None)
-    process(manifest, folder / "results", options, quiet=True)
-    return {"folder": folder / "results", "report": build_report(folder / "results")}
-
-
-@pytest.fixture(scope="module")
-def without_pilot(results: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """``results`` as a roadtex before the error budget left it: no pilot.parquet."""
-    copy = tmp_path_factory.mktemp("no_pilot") / "results"
-    shutil.copytree(results, copy, ignore=shutil.ignore_patterns("report", "pilot.parquet"))
-    return {"folder": copy, "report": build_report(copy)}
-
-
-def speed_figure_text(fig) -> str:
-    return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
-
-
-def test_speed_against_error_figure_is_always_in_the_report(report, results: Path, budget_off: dict,
-                                                            without_pilot: dict) -> None:
-    """With the budget on the figure shows the pilot's settings; with it off, and for a folder without
-    pilot.parquet, it is still there and says why it has no points."""
-    assert len(pl.read_parquet(results / "pilot.parquet")) > 0
-    assert pl.read_parquet(budget_off["folder"] / "pilot.parquet").height == 0
-    for built, says in ((report, None), (budget_off["report"], "error budget off"),
-                        (without_pilot["report"], "No pilot was recorded")):
-        png, svg = built.figures["setting_speed_vs_error"]
-        assert png.stat().st_size > 5_000 and svg.exists()
-        parsed = WellFormed()
-        parsed.feed(built.html.read_text(encoding="utf-8"))
-        assert "setting_speed_vs_error" in parsed.figures
-        caption = next(c for c in parse(built.html).captions if "Speed against error of the processed archive" in c)
-        if says is None:
-            assert "No pilot" not in caption
-        else:
-            assert says in caption
-    plt = pyplot()
-    for folder, says in ((budget_off["folder"], "error budget off"), (without_pilot["folder"], "No pilot was recorded")):
-        figures, _ = draw_figures(load_results(folder))
-        fig = figures["setting_speed_vs_error"]
-        assert says in speed_figure_text(fig)
-        assert not any(len(c.get_offsets()) for ax in fig.axes for c in ax.collections)
-        for f in figures.values():
-            plt.close(f)
-
-
-def test_chosen_point_is_plotted_at_the_chosen_setting(drawn, results: Path) -> None:
-    """One panel per pilot group; its points are every setting the pilot evaluated, at (worst level
-    error over the budget bands, seconds per metre x 1000) read from pilot.parquet; the starred point
-    is the chosen setting's; the budget is the dashed line; the reference is labelled."""
-    pilot = pl.read_parquet(results / "pilot.parquet")
-    settings = worst_in_budget(pilot)
-    fig = drawn["setting_speed_vs_error"]
-    panels = {ax.get_title().replace("\n", " "): ax for ax in fig.axes if ax.get_visible()}
-    groups = pilot["group"].unique().to_list()
-    assert len(panels) == len(groups) >= 3
-    budget = json.loads((results / "parameters.json").read_text())["plan"]["budget_db"]
-    for group in groups:
-        ax = next(a for title, a in panels.items() if group in title)
-        mine = settings.filter(pl.col("group") == group)
-        chosen = mine.filter(pl.col("chosen"))
-        assert chosen.height == 1
-        stars = [c for c in ax.collections if c.get_gid() == "chosen"]
-        assert len(stars) == 1
-        np.testing.assert_allclose(stars[0].get_offsets(), [[chosen["worst"][0], chosen["s_km"][0]]], rtol=1e-12)
-        plotted = np.concatenate([np.column_stack(line.get_data()) for line in ax.lines if line.get_marker() == "o"])
-        expected = mine.select("worst", "s_km").to_numpy()
-        assert len(plotted) == len(expected)
-        assert sorted(map(tuple, np.round(plotted, 12))) == sorted(map(tuple, np.round(expected, 12)))
-        assert [line.get_xdata()[0] for line in ax.lines if line.get_linestyle() == "--"] == [budget]
-        assert any("finest (reference)" in t.get_text() for t in ax.texts)
-        assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
-    assert "s/km" in fig.axes[0].get_ylabel()
-
-
-def test_band_error_table_lists_every_band_of_the_plan(report, results: Path) -> None:
-    """Every band of the plan with its label, whether the budget applies, the plan's error and each
-    group's error at its chosen setting (pilot.parquet); the line with budget, dx, tol, verdict,
-    speed-up and pilot time; the budget not met said plainly, with its floor."""
-    plan = json.loads((results / "parameters.json").read_text())["plan"]
-    pilot = pl.read_parquet(results / "pilot.parquet")
-    table = parse(report.html).tables["band-errors"]
-    bands = sorted(int(b) for b in plan["band_error_db"])
-    facts = pilot.group_by("band").agg(pl.col("label").first(), pl.col("in_budget").first()).sort("band")
-    facts = facts.filter(pl.col("band").is_in(bands))
-    assert column(table, "band (mm)") == facts["label"].to_list() and len(bands) == len(table["rows"])
-    assert column(table, "in budget") == ["yes" if v else "no" for v in facts["in_budget"]]
-    shown = [float(v) for v in column(table, "estimated error at the job's setting (dB)")]
-    np.testing.assert_allclose(shown, [plan["band_error_db"][str(b)] for b in bands], rtol=5e-3)
-    for group in pilot["group"].unique().to_list():
-        at_choice = pilot.filter(pl.col("chosen") & (pl.col("group") == group) & pl.col("band").is_in(bands)).sort("band")
-        values = [float(v) for v in column(table, f"at the chosen setting of {group} (dB)")]
-        np.testing.assert_allclose(values, at_choice["level_error_db"].to_numpy(), rtol=5e-3)
-    text = text_without_images(report.html)
-    assert f"dx = {plain(plan['dx'] * 1e3)} mm and tol = 10⁻⁸" in text
-    assert f"{plain(plan['speedup'])} times less solver work" in text
-    assert f"the pilots took {plain(plan['pilot_seconds'])} s" in text
-    assert f"Error budget {plain(plan['budget_db'])} dB" in text
-    # The synthetic archive's 0.5 mm sampling cannot meet 0.2 dB: the floor is the group whose best
-    # setting is worst.
-    assert plan["within_budget"] is False
-    floor = worst_in_budget(pilot).group_by("group").agg(pl.col("worst").min())["worst"].max()
-    assert "Within budget: no" in text and "could not be met at the data's sampling" in text
-    assert f"the floor, is {plain(floor)} dB" in text and floor > plan["budget_db"]
-
-
-def test_within_budget_is_said_without_a_floor(results: Path, tmp_path: Path) -> None:
-    copy = tmp_path / "results"
-    shutil.copytree(results, copy, ignore=shutil.ignore_patterns("report"))
-    parameters = json.loads((copy / "parameters.json").read_text())
-    parameters["plan"]["within_budget"] = True
-    (copy / "parameters.json").write_text(json.dumps(parameters))
-    text = text_without_images(build_report(copy).html)
-    assert "Within budget: yes" in text and "could not be met" not in text
-
-
-def test_budget_off_and_missing_pilot_are_said(budget_off: dict, without_pilot: dict, results: Path) -> None:
-    """Budget off: no estimate to tabulate, and the section says so with the setting used. No
-    pilot.parquet: the plan's bands are still listed (labels from bands.parquet), and the section
-    says no pilot was recorded."""
-    off = parse(budget_off["report"].html)
-    assert "band-errors" not in off.tables
-    assert "the job ran with the error budget off (every run solved at dx = 0.5 mm, tol = 10⁻⁸)" in \
-        text_without_images(budget_off["report"].html)
-    runs = pl.read_parquet(budget_off["folder"] / "runs.parquet")
-    assert runs["worst_level_error_db"].is_null().all()
-    assert column(off.tables["conditioning"], "tol") == ["10⁻⁸"] * runs.height
-
-    plan = json.loads((results / "parameters.json").read_text())["plan"]
-    missing = parse(without_pilot["report"].html)
-    table = missing.tables["band-errors"]
-    assert len(table["rows"]) == len(plan["band_error_db"])
-    assert set(column(table, "in budget")) == {"n/a"}
-    assert not any(h.startswith("at the chosen setting") for h in table["header"])
-    assert "No pilot was recorded" in text_without_images(without_pilot["report"].html)

@@ -122,7 +122,8 @@ def test_the_job_and_its_pilot_analyse_seamless_segments(tmp_path: Path) -> None
     dx = 0.5e-3
     heights, wavelengths = stepped_texture(dx)
     path = write_profile(roadtex.Profile.from_heights(heights, dx), tmp_path / "stepped.parquet")
-    options = ProcessingOptions(youngs_moduli=(2.5e6,), segment_length=SEGMENT, dx=dx, tol=1e-6, spike_alpha=None)
+    options = ProcessingOptions(youngs_moduli=(2.5e6,), segment_length=SEGMENT, dx=dx, tol=1e-6, spike_alpha=None,
+                                refine=1)
     tables = compute_run({"path": str(path), "run_id": "stepped"}, options)
     texture = (tables["bands"].filter(pl.col("reported"))
                .group_by("band").agg((10 ** (pl.col("texture_level") / 10)).mean().log10().mul(10).alias("level"))

@@ -242,7 +242,8 @@ def test_each_models_estimates_reach_its_own_rows_and_only_budget_bands_count(tm
     own = surface_estimates([path], budget_db=15.0)
     rows = pl.DataFrame({"run_id": ["s"] * 6, "model": ["line"] * 3 + ["areal"] * 3, "band": [20, 21, 30] * 2,
                          "level_error_db": [None] * 6}, schema_overrides={"level_error_db": pl.Float64})
-    empty = (pl.DataFrame(schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64}),
+    empty = (pl.DataFrame(schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
+                                  "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean}),
              pl.DataFrame(schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean}))
     bands = with_plan(rows.lazy(), "bands", None, empty, ["s"], own).collect()
     assert bands["level_error_db"].to_list() == [1.0, 2.0, 50.0, 10.0, 20.0, 500.0]

@@ -9,7 +9,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import reader_options
+from roadtex.archive.plan import reader_options, run_refine
 from roadtex.archive.schemas import (
     EXAMPLE_SCHEMA,
     METADATA_COLUMNS,
@@ -20,10 +20,17 @@ from roadtex.archive.schemas import (
 )
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX, implausible_texture, judged_once
+from roadtex.profiles.plausibility import (
+    PLAUSIBLE_MAX_DX,
+    coarse_sampling,
+    implausible_texture,
+    judged_once,
+    stated_distance_unit,
+)
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import read_profile
 from roadtex.spectra.analysis import time_frequency
@@ -66,35 +73,33 @@ def within_file_sampling(bands: pl.DataFrame, file_dx: float, dx: float, length:
                               pl.when(lost).then(why).otherwise(pl.col("reason")).alias("reason"))
 
 
-def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int | None = None) -> dict[str, pl.DataFrame]:
-    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing written).
+def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
+                threads: int | None = None) -> dict[str, pl.DataFrame | str | None]:
+    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing
+    written) and its notes on plausibility (strings or None, see :func:`plausibility_notes`).
 
-    ``options.dx`` and ``options.tol`` must be set (the job's plan fills them in:
+    The contact model solves each segment on a grid finer than ``dx`` (its pilot group's model
+    grid, :func:`~roadtex.archive.plan.run_refine`)
+    (the readings joined by ``options.interpolant``, :mod:`roadtex.models.grid`); its enveloped
+    and pressure levels are taken on that grid in the data's bands; texture levels are the data's.
+    ``options.dx``, ``options.tol`` and ``options.refine`` must be set (the job's plan fills them in:
     :meth:`~roadtex.archive.plan.JobPlan.resolved`); the plan's error estimates are added when the
     job combines the runs' tables (:func:`roadtex.archive.job.combine`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
             too short for one 100 mm MPD baseline or one segment fails as a whole, and so does a
-            file whose heights cannot be a road texture in the unit read (a unit mistake).
+            file whose heights cannot be a road texture in the unit read (a unit mistake), unless
+            ``options.allow_implausible`` (:func:`plausibility_notes`).
     """
-    if options.dx is None or options.tol is None:
-        raise InvalidInputError("compute_run needs options.dx and options.tol (the job's plan sets them)")
+    if options.dx is None or options.tol is None or options.refine is None:
+        raise InvalidInputError("compute_run needs options.dx, options.tol and options.refine (the job's plan sets them)")
     name = Path(run["path"]).name
     reading = reader_options(run, options)
     # judged here, and refused: no warning from the reader that it computes as given
     with judged_once():
         raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reading))
-    reason = implausible_texture(raw.heights, raw.dx, name)
-    if reason is not None:
-        if reading.get("dx") is not None and raw.dx > PLAUSIBLE_MAX_DX:
-            what = (f"The interval dx = {reading['dx']:g} given for it (manifest column dx, --input-dx) must be in "
-                    "metres (0.5 mm is 0.5e-3).")
-        else:
-            what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
-                    "--height-unit) where its header states none; a unit its header states wrongly must be "
-                    "corrected in the file (a unit given never overrides the header's).")
-        raise RunFailure("read", InvalidInputError(f"{reason} {what}"))
+    notes = plausibility_notes(raw.heights, raw.dx, name, raw.metadata, options, given_dx=reading.get("dx"))
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
@@ -109,6 +114,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     moduli = np.asarray(options.youngs_moduli)
     n_moduli = moduli.size
     dx = segments.dx
+    refine = run_refine(run, raw.dx, dx, options)
+    model_dx = dx / refine
     speed = run.get("speed_kmh")
     speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
 
@@ -142,22 +149,24 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
     for first in range(0, n_segments, CHUNK_SEGMENTS):
         chunk = slice(first, min(first + CHUNK_SEGMENTS, n_segments))
         heights = segments.heights[chunk]
+        model = refine_periodic(heights, refine, options.interpolant)   # heights itself when refine is 1
         batch = run_stage("solve", lambda: contact_many(
-            heights, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+            model, model_dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
             max_iterations=options.max_iterations, threads=threads, warm_start=True,
             raise_on_nonconvergence=False))
         count = heights.shape[0]
-        envelopes = batch.envelope.reshape(count * n_moduli, n_points)
-        pressures = batch.pressure.reshape(count * n_moduli, n_points)
-        enveloped = run_stage("spectra", lambda: band_levels(envelopes, dx, kind=options.band_kind, periodic=True, method=method))
-        pressure = run_stage("spectra", lambda: band_levels(
-            pressures, dx, kind=options.band_kind, periodic=True, method=method, reference=REFERENCE_PRESSURE))
-        if options.keep_profiles:
-            profile_envelopes[:, chunk] = np.moveaxis(batch.envelope, 1, 0)
-            profile_pressures[:, chunk] = np.moveaxis(batch.pressure, 1, 0)
+        model_points = model.shape[1]
+        envelopes = batch.envelope.reshape(count * n_moduli, model_points)
+        pressures = batch.pressure.reshape(count * n_moduli, model_points)
+        enveloped = run_stage("spectra", lambda: model_levels(envelopes, model_dx, bands, options))
+        pressure = run_stage("spectra", lambda: model_levels(pressures, model_dx, bands, options, REFERENCE_PRESSURE))
+        if options.keep_profiles:   # at the data's readings, as the profile is
+            profile_envelopes[:, chunk] = np.moveaxis(coarse_points(batch.envelope, refine), 1, 0)
+            profile_pressures[:, chunk] = np.moveaxis(coarse_points(batch.pressure, refine), 1, 0)
 
         if first <= example_segment < first + count:
-            example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first)
+            example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first,
+                                    model[example_segment - first], model_dx)
         measures = batch.measures()
         index = np.arange(first, first + count)
         seg_index = np.repeat(index, n_moduli)
@@ -192,8 +201,8 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
             "reported": np.tile(bands["reported"].to_numpy(), rows),
             "reason": np.tile(bands["reason"].to_numpy(), rows),
             "texture_level": texture.levels[seg_index].ravel(),
-            "enveloped_level": enveloped.levels.ravel(),
-            "pressure_level": pressure.levels.ravel(),
+            "enveloped_level": enveloped.ravel(),
+            "pressure_level": pressure.ravel(),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id"), pl.lit("line").alias("model"),
                         pl.lit(None, dtype=pl.Int64).alias("line")).select(
             [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
@@ -207,11 +216,74 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *, threads: int
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
-    return tables
+    return {**tables, **notes}
+
+
+def resolves_a_band(dx: float, length: float, kind: str) -> bool:
+    """Whether a segment ``length`` (m) sampled every ``dx`` (m) reports any band of ``kind``
+    (one of fewer than 8 samples reports none)."""
+    try:
+        return bool(band_table(dx, length, kind)["reported"].any())
+    except InvalidInputError:   # too few samples for a spectrum
+        return False
+
+
+#: Where a user allows what plausibility refuses (the message's last words).
+ALLOW_IMPLAUSIBLE = "--allow-implausible (ProcessingOptions.allow_implausible) processes it as read"
+
+
+def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict[str, Any], options: ProcessingOptions,
+                       *, given_dx: object = None, row: str = "segment") -> dict[str, str | None]:
+    """Judges a run's heights (m; rows of ``row``) and interval ``dx`` (m) as read from file ``name``
+    (``metadata``: the reader's, which says whether the distances' unit is certain): raises the run's
+    failure at "read" when they cannot be road texture in metres (a unit mistake, with what to do),
+    unless ``options.allow_implausible``; else returns the notes the job warns with after the runs
+    (:func:`roadtex.archive.job.process`): ``implausible_note`` (processed as read although
+    implausible) and ``sampling_note`` (an interval above PLAUSIBLE_MAX_DX, processed), each None
+    when there is nothing to say. A file whose distance unit is certain is never refused for its
+    interval alone; a file sampled so coarsely that no band of a segment is resolved is refused
+    (nothing could be reported), whatever its unit."""
+    stated = stated_distance_unit(metadata)
+    reason = implausible_texture(heights, dx, name, row=row, interval_stated=stated is not None)
+    if reason is not None and not options.allow_implausible:
+        if given_dx is not None and dx > PLAUSIBLE_MAX_DX:
+            what = (f"The interval dx = {given_dx:g} given for it (manifest column dx, --input-dx) must be in "
+                    "metres (0.5 mm is 0.5e-3).")
+        else:
+            what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
+                    "--height-unit) where its header states none; a unit its header states wrongly must be "
+                    "corrected in the file (a unit given never overrides the header's).")
+        raise RunFailure("read", InvalidInputError(f"{reason} {what} If the file is right as read, {ALLOW_IMPLAUSIBLE}."))
+    note = coarse_sampling(dx, name, stated)
+    if note is not None and not resolves_a_band(dx, options.segment_length, options.band_kind):
+        # nothing its sampling resolves: solving it would report nothing (a 0.5 m interval is
+        # usually distances in mm given as m, whatever unit was stated)
+        unit = f"its distances' unit: {stated}" if stated else "its distances read as metres"
+        raise RunFailure("read", InvalidInputError(
+            f"{name}: sampled every {dx:.4g} m ({unit}), which resolves no {options.band_kind.replace('_', '-')} "
+            f"band of segments of {options.segment_length:g} m (a band needs 2.5 samples a wavelength and 12 "
+            "wavelengths a segment): nothing could be reported. Were its distances in millimetres? Give the unit "
+            "that is right (manifest column distance_unit, --distance-unit; a header's unit must be corrected in "
+            "the file), or longer segments (--segment-length)."))
+    return {"implausible_note": None if reason is None else f"{reason} Processed as read (--allow-implausible).",
+            "sampling_note": note}
+
+
+def model_levels(values: np.ndarray, model_dx: float, bands: pl.DataFrame, options: ProcessingOptions,
+                 reference: float | None = None) -> np.ndarray:
+    """Band levels (rows, bands) of the model's periodic output (rows of enveloped heights in m, or
+    pressures in Pa, sampled every ``model_dx`` m) in the data's bands (``bands``, in its order):
+    the finer model grid resolves bands the data's do not, which are not the run's."""
+    extra = {} if reference is None else {"reference": reference}
+    levels = band_levels(values, model_dx, kind=options.band_kind, periodic=True, method=options.band_method, **extra)
+    if levels.bands.height == bands.height and levels.bands["band"].equals(bands["band"]):
+        return levels.levels   # the data's grid: the same bands
+    numbers = levels.bands["band"].to_list()
+    return levels.levels[:, [numbers.index(band) for band in bands["band"].to_list()]]
 
 
 def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[Profile, CleaningSummary]:
@@ -221,13 +293,14 @@ def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[P
 
 
 def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
-              n_segments: int, tol: float) -> pl.DataFrame:
+              n_segments: int, tol: float, refine: int) -> pl.DataFrame:
     """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity
     (the plan's columns are added when the job combines the runs)."""
     mpd_value = depth.mpd if np.isfinite(depth.mpd) else None
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [tol], "points": [conditioned.heights.size],
+        "file_dx": [raw.dx], "dx_used": [conditioned.dx], "tol_used": [tol], "refine": [refine],
+        "model_dx": [conditioned.dx / refine], "points": [conditioned.heights.size],
         "raw_length": [cleaning.raw_length], "trimmed_length": [cleaning.trimmed_length],
         "length": [conditioned.length], "plates": [cleaning.plates],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
@@ -272,17 +345,18 @@ def stitched_profiles(run_id: str, segments: Any, moduli: np.ndarray, envelopes:
 
 
 def example_table(run_id: str, segments: Any, segment: int, moduli: np.ndarray, batch: ContactBatch,
-                  row: int) -> pl.DataFrame:
-    """One segment's heights (as solved), envelopes and pressures for every modulus (EXAMPLE_SCHEMA)."""
-    n_points = segments.heights.shape[1]
-    positions = segments.starts[segment] + segments.dx * np.arange(n_points)
+                  row: int, model_heights: np.ndarray, model_dx: float) -> pl.DataFrame:
+    """One segment's heights as solved (on the model's grid, ``model_dx`` m), envelopes and
+    pressures for every modulus (EXAMPLE_SCHEMA)."""
+    n_points = model_heights.size
+    positions = segments.starts[segment] + model_dx * np.arange(n_points)
     return pl.DataFrame({
         "run_id": [run_id] * (moduli.size * n_points),
         "segment": np.full(moduli.size * n_points, segment),
         "youngs_modulus": np.repeat(moduli, n_points),
-        "dx": np.full(moduli.size * n_points, segments.dx),
+        "dx": np.full(moduli.size * n_points, model_dx),
         "position": np.tile(positions, moduli.size),
-        "height": np.tile(segments.heights[segment], moduli.size),
+        "height": np.tile(model_heights, moduli.size),
         "envelope": batch.envelope[row].ravel(),
         "pressure": batch.pressure[row].ravel(),
     }, schema=EXAMPLE_SCHEMA)

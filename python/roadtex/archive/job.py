@@ -52,7 +52,14 @@ from roadtex.archive.store import (
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
+from roadtex.errors import (
+    ArchiveWriteError,
+    CoarseSamplingWarning,
+    ErrorBudgetWarning,
+    ImplausibleTextureWarning,
+    InvalidInputError,
+    ResultsNotFoundError,
+)
 from roadtex.profiles.plausibility import judged_once
 
 Engine = Literal["local", "dask"]
@@ -151,8 +158,11 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
                       seconds=time.perf_counter() - started)
-        if tables.get("pilot_note") is not None:   # a surface run whose areal pilot could not run
-            status["pilot_note"] = tables["pilot_note"]
+        # a surface run whose areal pilot could not run; a run processed although implausible
+        # (allow_implausible), or sampled more coarsely than texture (the job warns after the runs)
+        for note in ("pilot_note", *PLAUSIBILITY_NOTES):
+            if tables.get(note) is not None:
+                status[note] = tables[note]
     for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", "level_errors",
                   *COMPARISON_TABLES):
         if status["state"] != "ok" or tables.get(stale) is None:  # failed, or not made this time
@@ -223,6 +233,7 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
     warn_surfaces_over_budget(tables["runs"], [run["run_id"] for run in runs if is_surface_run(run)],
                               options.error_budget_db)
+    warn_plausibility_notes([statuses[run["run_id"]] for run in runs if run["run_id"] in statuses])
     counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
               for state in ("ok", "error")}
     return ProcessSummary(
@@ -232,6 +243,29 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         seconds=time.perf_counter() - started, tables=tables,
         failed_on_record=sum(1 for s in statuses.values() if s["state"] == "error"), dx=plan.dx,
         surface_runs=sum(1 for run in runs if is_surface_run(run)))
+
+
+#: The notes of a run's status that the job warns with after the runs, and their warnings.
+PLAUSIBILITY_NOTES = {"implausible_note": ImplausibleTextureWarning, "sampling_note": CoarseSamplingWarning}
+#: Runs whose notes of one kind are warned one by one; more are counted in one warning.
+NOTES_WARNED = 5
+
+
+def warn_plausibility_notes(statuses: list[dict[str, Any]]) -> None:
+    """The notes (:data:`PLAUSIBILITY_NOTES`) that runs done this call or before (their status,
+    processed with the same options) carry, as warnings: each run's own (it names the file), up to
+    :data:`NOTES_WARNED` of a kind, then one naming how many more runs have one (their
+    status.json files hold theirs). Warned here, in the caller's thread, after the runs: a run's
+    own thread (or Dask worker) would print it amid the progress bar, or not at all."""
+    for key, category in PLAUSIBILITY_NOTES.items():
+        noted = [s for s in statuses if s.get("state") == "ok" and s.get(key)]
+        for status in noted[:NOTES_WARNED]:
+            warnings.warn(status[key], category, stacklevel=3)
+        if len(noted) > NOTES_WARNED:
+            rest = noted[NOTES_WARNED:]
+            warnings.warn(f"{len(rest)} more run(s) with the same kind of note ({category.__name__}): "
+                          f"{', '.join(str(s['run_id']) for s in rest[:5])}{' ...' if len(rest) > 5 else ''} "
+                          "(runs/<run_id>/status.json holds each one's)", category, stacklevel=3)
 
 
 def warn_surfaces_over_budget(runs_path: Path, surface_ids: list[str], budget_db: float | None) -> None:
@@ -346,7 +380,7 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
     interval), or the largest of any group when no pilot covered its group: per (run, band)
     ``level_error_db`` and per run ``worst_level_error_db`` and ``within_budget``. Surface runs
     have none: the pilot is of line runs, and a surface run is solved at its own spacings."""
-    band_rows: list[tuple[str, int, float]] = []
+    band_rows: list[tuple[str, int, float, float | None, bool | None]] = []
     run_rows: list[tuple[str, float | None, bool | None]] = []
     if plan is not None and plan.budget_db is not None and run_files:
         file_dx = dict(pl.scan_parquet(run_files, schema=RUN_RUN_SCHEMA).select("run_id", "file_dx").collect().iter_rows())
@@ -355,10 +389,15 @@ def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan |
                 continue
             group = plan.group_of(run, file_dx[run["run_id"]])
             errors = plan.band_error_db if group is None else group.band_error_db
-            band_rows += [(run["run_id"], band, error) for band, error in errors.items() if np.isfinite(error)]
+            spread = plan.interpolant_spread_db if group is None else group.interpolant_spread_db
+            band_rows += [(run["run_id"], band, error, spread.get(band),
+                           None if band not in spread else bool(spread[band] > plan.budget_db))
+                          for band, error in errors.items() if np.isfinite(error)]
             run_rows.append((run["run_id"], plan.worst_error_db if group is None else group.worst_error_db,
                              plan.within_budget if group is None else group.within_budget))
-    bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64}, orient="row")
+    bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
+                                            "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean},
+                         orient="row")
     runs = pl.DataFrame(run_rows, schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean},
                         orient="row")
     return bands, runs
@@ -397,9 +436,12 @@ def with_plan(query: pl.LazyFrame, name: str, plan: JobPlan | None,
         joined = (query.join(band_errors.lazy(), on=["run_id", "band"], how="left", maintain_order="left")
                   .join(own_bands.lazy(), on=["run_id", "model", "band"], how="left", maintain_order="left"))
         # the line pilot measures the line model of line runs only
+        line_only = surface | (pl.col("model") == "areal")
         return joined.with_columns(pl.when(surface).then(pl.col("surface_error_db"))
                                    .when(pl.col("model") == "areal").then(None)
-                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"))
+                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"),
+                                   *[pl.when(line_only).then(None).otherwise(pl.col(c)).alias(c)
+                                     for c in ("interpolant_spread_db", "sampling_limited")])
     if name == "runs":
         # Only deterministic numbers go in the tables (a re-run, a resumed run and the Dask engine must
         # give the same bits): the saving as a share of the solver work; measured seconds are in

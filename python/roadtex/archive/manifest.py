@@ -12,8 +12,8 @@ from typing import Any, Sequence
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
-from roadtex.errors import ImplausibleTextureWarning, ManifestError
-from roadtex.profiles.plausibility import implausible_texture, judged_once
+from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError
+from roadtex.profiles.plausibility import coarse_sampling, implausible_texture, judged_once, stated_distance_unit
 from roadtex.profiles.readers import file_head, guess_format, read_profile
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
@@ -252,7 +252,7 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
         if surface:
             row["format"] = "surface"
         if read_metadata:
-            implausible = None
+            implausible = coarse = None
             try:
                 if surface:
                     metadata = read_surface(path).metadata
@@ -263,15 +263,20 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                     # the format the file was read as, so that runs.parquet says it (its metadata's
                     # "format" may be an earlier one's: a CAPTIF profile written to Parquet keeps it)
                     row["format"] = guess_format(path, file_head(path))
-                    implausible = implausible_texture(profile.heights, profile.dx, path.name)
+                    stated = stated_distance_unit(profile.metadata)
+                    implausible = implausible_texture(profile.heights, profile.dx, path.name,
+                                                      interval_stated=stated is not None)
+                    coarse = coarse_sampling(profile.dx, path.name, stated) if stated is not None else None
             except Exception:  # listed anyway: the job records why it fails
                 metadata = {}
             if implausible is not None:
                 # what the job will do with it (refuse it), not the reader's "computing as given"
                 warnings.warn(f"{implausible} roadtex process refuses it unless its manifest row gives the units "
                               "its header lacks (distance_unit, height_unit; a wrong unit in the header must be "
-                              "corrected in the file) or, for heights only, dx in metres",
-                              ImplausibleTextureWarning, stacklevel=2)
+                              "corrected in the file) or, for heights only, dx in metres; --allow-implausible "
+                              "processes it as read", ImplausibleTextureWarning, stacklevel=2)
+            elif coarse is not None:   # as read_surface warns for surfaces
+                warnings.warn(coarse, CoarseSamplingWarning, stacklevel=2)
             for name in METADATA_COLUMNS:
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata[name]

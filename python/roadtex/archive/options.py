@@ -66,6 +66,11 @@ class ProcessingOptions:
             than the data's (every ``dx / k``), the readings joined by ``interpolant``
             (:mod:`roadtex.models.grid`); texture levels stay those of the data. None (the
             default): chosen by the error budget (1 without one). 1: the data's own grid.
+        group_model_dx: set by the job's plan: (group, file spacing in m to two significant
+            digits, model grid interval in m) of each error-budget pilot group; a line run of such
+            a group is solved on its own group's model grid (``ceil(dx / model_dx)`` times finer
+            than ``dx``): converged levels do not depend on the grid, so runs need not share it.
+            Runs of no pilot group get ``refine``, the finest any group needs.
         interpolant: the continuous road between readings, ``"linear"`` (default), ``"pchip"`` or
             ``"bandlimited"`` (:data:`roadtex.models.grid.INTERPOLANTS`).
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
@@ -75,6 +80,12 @@ class ProcessingOptions:
             normative method; see :func:`roadtex.spectra.band_levels`).
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
         keep_profiles: also write the enveloped profiles and pressures (large).
+        allow_implausible: process runs whose heights or sampling interval cannot be road texture
+            in metres (usually a unit mistake; see :func:`roadtex.profiles.plausibility.implausible_texture`)
+            as read, with a warning, instead of refusing them. A run whose distance unit is certain
+            (OpenCRG, a unit its header states, or ``distance_unit`` given) is never refused for a
+            coarse interval alone: it is processed with a
+            :class:`~roadtex.errors.CoarseSamplingWarning`, its unresolved bands not reported.
         reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
             ``height_unit``, ``delimiter``, ``decimal``, ``dx`` in m, ...); manifest columns of the
             same names override them per run.
@@ -93,11 +104,13 @@ class ProcessingOptions:
     tol_from_budget: bool = False
     refine: int | None = None
     interpolant: str = "linear"
+    group_model_dx: tuple[tuple[str, float, float], ...] = ()
     max_iterations: int = 2000
     band_kind: str = "third_octave"
     band_method: str = "dft"
     speed_kmh: float | None = None
     keep_profiles: bool = False
+    allow_implausible: bool = False
     reader_defaults: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -118,6 +131,8 @@ class ProcessingOptions:
         if self.refine is not None:
             object.__setattr__(self, "refine", check_refine(self.refine))
         check_interpolant(self.interpolant)
+        object.__setattr__(self, "group_model_dx", tuple(
+            (str(key), float(spacing), positive(model_dx, "group_model_dx", "m")) for key, spacing, model_dx in self.group_model_dx))
         overlap = finite_number(self.segment_overlap, "segment_overlap")
         if not 0.0 <= overlap < self.segment_length:
             raise InvalidInputError(f"segment_overlap must be in [0, segment_length) (m), got {self.segment_overlap!r}")

@@ -31,7 +31,7 @@ import polars as pl
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
 from roadtex.budget import choose_setting
 from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
-from roadtex.profiles.plausibility import implausible_texture, judged_once
+from roadtex.profiles.plausibility import implausible_texture, judged_once, stated_distance_unit
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
 
@@ -54,6 +54,10 @@ class GroupError:
             that band for the group's runs at the job's setting.
         worst_error_db: the largest of those in the budget bands (dB).
         within_budget: whether that is within the budget.
+        refine: the model grid refinement the pilot chose for the group.
+        model_dx: the group's model grid interval (m): its runs are solved on it.
+        interpolant_spread_db: band number -> what the group's sampling cannot tell (dB): the
+            spread of the converged levels between interpolants of the readings.
     """
 
     key: str
@@ -61,6 +65,9 @@ class GroupError:
     band_error_db: dict[int, float]
     worst_error_db: float
     within_budget: bool
+    refine: int = 1
+    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
+    model_dx: float | None = None
 
 
 @dataclass(frozen=True)
@@ -70,14 +77,17 @@ class JobPlan:
     Attributes:
         dx: sampling interval (m).
         tol: solver tolerance (relative residual).
+        refine: the model grid's refinement k: the contact model is solved every ``dx / refine``.
         source: how they were chosen.
         budget_db: the error budget (dB), None when off.
         within_budget: whether every group's estimate is within the budget (None without budget).
         worst_error_db: largest estimated error (dB) in the budget bands, any group (None without budget).
         band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
             that band (texture, enveloped, pressure; any segment, modulus and group).
+        interpolant_spread_db: band number -> the largest spread (dB) of any group's converged
+            levels between interpolants of the readings: what the sampling cannot tell.
         seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
-        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
         speedup: the finest setting's work over the chosen one's (iterations x N log2 N per metre,
             the pilots' count: unlike the times, the machine's load does not change it).
         pilot_seconds: wall time of the pilots (s).
@@ -93,10 +103,12 @@ class JobPlan:
     dx: float
     tol: float
     source: str
+    refine: int = 1
     budget_db: float | None = None
     within_budget: bool | None = None
     worst_error_db: float | None = None
     band_error_db: dict[int, float] = field(default_factory=dict)
+    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
     seconds_per_metre: float | None = None
     finest_seconds_per_metre: float | None = None
     speedup: float | None = None
@@ -115,17 +127,21 @@ class JobPlan:
         return next((g for g in self.group_errors.values() if g.key == key and g.spacing == spacing), None)
 
     def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
-        """``options`` with the plan's interval and tolerance filled in (what the runs are solved
-        with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
-        return dataclasses.replace(options, dx=self.dx, tol=self.tol,
+        """``options`` with the plan's interval, refinement and tolerance filled in (what the runs
+        are solved with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
+        return dataclasses.replace(options, dx=self.dx, tol=self.tol, refine=self.refine,
+                                   group_model_dx=tuple((g.key, g.spacing, g.model_dx) for g in self.group_errors.values()
+                                                        if g.model_dx is not None),
                                    tol_from_budget=options.tol is None and options.error_budget_db is not None)
 
     def summary(self) -> dict[str, Any]:
         """The plan as JSON-ready values (parameters.json)."""
         as_dict = dataclasses.asdict(self)
         as_dict["band_error_db"] = {str(k): v for k, v in self.band_error_db.items()}
+        as_dict["interpolant_spread_db"] = {str(k): v for k, v in self.interpolant_spread_db.items()}
         for group in as_dict["group_errors"].values():
             group["band_error_db"] = {str(k): v for k, v in group["band_error_db"].items()}
+            group["interpolant_spread_db"] = {str(k): v for k, v in group["interpolant_spread_db"].items()}
         return as_dict
 
 
@@ -154,7 +170,7 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
 def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
     """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
-    texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
+    texture in metres (or any, with ``options.allow_implausible``), with their profiles. A sampled run that is not is recorded in ``unread``
     (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
     stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
     picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
@@ -172,8 +188,9 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
             except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
                 unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
                 continue
-            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
-            if reason is not None:
+            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]),
+                                         interval_stated=stated_distance_unit(profile.metadata) is not None)
+            if reason is not None and not options.allow_implausible:   # else solved as read, as the run is
                 unread[str(run["run_id"])] = reason
                 continue
             read.append((run, profile))
@@ -183,6 +200,16 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
 
 def group_key(run: dict[str, Any]) -> str:
     return f"{run.get('device') or 'any device'} / {run.get('pavement') or 'any pavement'}"
+
+
+def run_refine(run: dict[str, Any], file_dx: float, dx: float, options: ProcessingOptions) -> int:
+    """The model grid refinement of a line run (file sampled every ``file_dx`` m, conditioned to
+    ``dx`` m): its pilot group's model grid (``options.group_model_dx``), else ``options.refine``."""
+    key, spacing = group_key(run), float(f"{file_dx:.2g}")
+    for group, group_spacing, model_dx in options.group_model_dx:
+        if group == key and group_spacing == spacing:
+            return max(1, int(np.ceil(dx / model_dx * (1.0 - 1e-9))))
+    return int(options.refine or 1)
 
 
 def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads: int | None = None) -> tuple[JobPlan, pl.DataFrame]:
@@ -196,6 +223,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         return plan_without_budget(runs, options), pl.DataFrame()
     if not runs:   # surface runs only: each has its own pilot, spacings and tol
         return JobPlan(dx=options.dx or 0.5e-3, tol=DEFAULT_TOL if options.tol is None else options.tol,
+                       refine=options.refine or 1,
                        source="no line run to plan for (surface runs: their own spacings, and their own "
                               "pilots' tolerances and error estimates)"), pl.DataFrame()
     groups: dict[str, list[dict[str, Any]]] = {}
@@ -219,6 +247,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                         [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
                         mean_pressure=options.mean_pressure, segment_length=options.segment_length,
                         budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
+                        forced_refine=options.refine,
                         poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
                         max_iterations=options.max_iterations, threads=threads)
             except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
@@ -232,9 +261,12 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
             read_runs[name] = [run["run_id"] for run, _ in read]
             group_errors[name] = GroupError(key=key, spacing=spacing, band_error_db=dict(choice.band_error_db),
                                             worst_error_db=float(choice.worst_error_db),
-                                            within_budget=bool(choice.within_budget))
+                                            within_budget=bool(choice.within_budget), refine=choice.refine,
+                                            model_dx=float(choice.model_dx),
+                                            interpolant_spread_db=dict(choice.interpolant_spread_db))
             studies.append(choice.study.with_columns(
-                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("tol") == choice.tol)).alias("chosen")))
+                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("refine") == choice.refine)
+                                              & (pl.col("tol") == choice.tol)).alias("chosen")))
     if not choices:
         fallback = plan_without_budget(runs, options)
         return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
@@ -242,8 +274,12 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
                                    failed_pilots=failed, unread_runs={**unread, **fallback.unread_runs}), pl.DataFrame()
     dx = min(c.dx for c in choices)
     tol = min(c.tol for c in choices)
+    # the finest model grid any group needs, on the job's data interval
+    refine = max(1, int(np.ceil(dx / min(c.model_dx for c in choices) * (1.0 - 1e-9))))
     bands = sorted({b for c in choices for b in c.band_error_db})
     band_error = {b: max(c.band_error_db.get(b, 0.0) for c in choices) for b in bands}
+    spread = {b: max(c.interpolant_spread_db[b] for c in choices if b in c.interpolant_spread_db)
+              for b in bands if any(b in c.interpolant_spread_db for c in choices)}
     within = all(c.within_budget for c in choices)
     worst = max(c.worst_error_db for c in choices)
     if not within:
@@ -259,8 +295,9 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         pl.col("work_per_metre").filter(pl.col("reference")).max().alias("finest"))
     speedup = float((per_group["finest"] / per_group["chosen"]).min())
     plan = JobPlan(
-        dx=float(dx), tol=float(tol), source=f"error budget pilots of {len(choices)} group(s)",
+        dx=float(dx), tol=float(tol), refine=refine, source=f"error budget pilots of {len(choices)} group(s)",
         budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
+        interpolant_spread_db=spread,
         seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
         finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
         pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
@@ -270,13 +307,14 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
 
 def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:
     tol = DEFAULT_TOL if options.tol is None else options.tol
+    refine = options.refine or 1   # without a budget, the data's own grid unless one is given
     if options.dx is not None:
-        return JobPlan(dx=options.dx, tol=tol, source="given")
+        return JobPlan(dx=options.dx, tol=tol, refine=refine, source="given")
     unread: dict[str, str] = {}
     read = readable(runs, options, PLAN_SAMPLE_RUNS, unread)
     if not read:
-        return JobPlan(dx=0.5e-3, tol=tol, source="ISO 13473-1 grid (no sampled run could be read)",
+        return JobPlan(dx=0.5e-3, tol=tol, refine=refine, source="ISO 13473-1 grid (no sampled run could be read)",
                        unread_runs=unread)
-    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol,
+    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol, refine=refine,
                    source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]},
                    unread_runs=unread)

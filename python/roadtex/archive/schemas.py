@@ -86,6 +86,11 @@ BAND_COLUMNS: Columns = {
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
                                                   # (line runs: their group's pilot; surface runs: their own
                                                   # areal pilot, per model; null without budget)
+    "interpolant_spread_db": (pl.Float64(), "dB"),  # what the data's sampling cannot tell: the largest difference of
+                                                  # the converged levels between interpolants of the readings
+                                                  # (linear, monotone cubic, band-limited); null where not measured
+    "sampling_limited": (pl.Boolean(), None),     # interpolant_spread_db above the budget: the data's resolution,
+                                                  # not the solver, limits this band's contact levels
 }
 RUN_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -95,6 +100,8 @@ RUN_COLUMNS: Columns = {
     "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
                                                   # a surface run's own dx along the road)
     "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's; a surface run's own pilot's choice)
+    "refine": (pl.Int64(), "1"),                  # k: the contact model's grid is k times finer than dx_used
+    "model_dx": (pl.Float64(), "m"),              # the contact model's element width, dx_used / refine
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
     "trimmed_length": (pl.Float64(), "m"),        # cut away as reference plates (and beyond them)
@@ -118,8 +125,10 @@ RUN_COLUMNS: Columns = {
 }
 PILOT_COLUMNS: Columns = {
     "group": (pl.String(), None),                 # device / pavement group of runs sharing one pilot
-    "dx": (pl.Float64(), "m"),
-    "points": (pl.Int64(), "count"),              # per segment
+    "dx": (pl.Float64(), "m"),                    # the data's interval
+    "points": (pl.Int64(), "count"),              # per segment, at dx
+    "refine": (pl.Int64(), "1"),                  # k: the model grid is dx / k
+    "model_dx": (pl.Float64(), "m"),
     "tol": (pl.Float64(), "1"),
     "reference": (pl.Boolean(), None),            # the finest setting the others are measured against
     "chosen": (pl.Boolean(), None),               # the group's choice
@@ -250,7 +259,7 @@ PILOT_SCHEMA = schema(PILOT_COLUMNS)
 SURFACE_ERROR_SCHEMA = schema(SURFACE_ERROR_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
-PLAN_BAND_COLUMNS = ("level_error_db",)
+PLAN_BAND_COLUMNS = ("level_error_db", "interpolant_spread_db", "sampling_limited")
 PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction")
 RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}
 RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUMNS}

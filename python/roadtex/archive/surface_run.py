@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from roadtex.archive.compute import run_stage, segment_mpd
+from roadtex.archive.compute import plausibility_notes, run_stage, segment_mpd
 from roadtex.archive.options import ProcessingOptions
 from roadtex.archive.schemas import (
     METADATA_COLUMNS,
@@ -54,7 +54,7 @@ from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
 from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.plausibility import judged_once
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -122,8 +122,10 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         give them, with ``model`` "line" or "areal" and ``line`` the row index of the surface;
         ``surface_example``: the middle tile solved at the middle modulus (for the report); and
         ``level_errors`` (SURFACE_ERROR_SCHEMA; None without an error budget, or when the areal
-        pilot could not run): the error estimate of each model's levels per band; and
-        ``pilot_note`` (a string, not a table): why the pilot could not run, else None.
+        pilot could not run): the error estimate of each model's levels per band;
+        ``pilot_note`` (a string, not a table): why the pilot could not run, else None; and the
+        notes on plausibility, ``implausible_note`` and ``sampling_note``
+        (:func:`~roadtex.archive.compute.plausibility_notes`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
@@ -132,15 +134,16 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         raise InvalidInputError("compute_surface_run needs options.tol (the job's plan sets it)")
     name = Path(run["path"]).name
     reader = surface_reader_options(run, options)
-    raw = run_stage("read", lambda: read_surface(run["path"], **reader))
+    # judged here, and refused or noted: no warning from the reader that it computes as given
+    with judged_once():
+        raw = run_stage("read", lambda: read_surface(run["path"], **reader))
     # judged without the gross outliers (drop-out codes), which conditioning removes
     outliers = run_stage("condition", lambda: outlier_mask(raw))
     finite = raw.heights[np.isfinite(raw.heights) & ~outliers]
-    reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
-    if reason is not None:
-        raise RunFailure("read", InvalidInputError(
-            f"{reason} Give the file's units (manifest columns distance_unit, height_unit), or correct "
-            "the unit in the file's header where it states one."))
+    if not finite.size:
+        raise RunFailure("read", InvalidInputError(f"{name}: no valid reading"))
+    notes = plausibility_notes(finite[None, :], raw.dx, name, raw.metadata, options, given_dx=reader.get("dx"),
+                               row="surface")
     surface, cleaning = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
     if surface.shape[0] < MIN_SURFACE_ROWS:  # refused before any solve, naming the file
         raise RunFailure("read", InvalidInputError(
@@ -211,6 +214,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
         "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol),
+        **notes,
     }
 
 
@@ -389,7 +393,8 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
     values = [d.mpd for d in depths if np.isfinite(d.mpd)]
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "points": [surface.heights.size],
+        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "refine": [1], "model_dx": [surface.dx],
+        "points": [surface.heights.size],
         "raw_length": [raw.length], "trimmed_length": [0.0], "length": [surface.length], "plates": ["none"],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
         "outlier_fraction": [cleaning.outlier_fraction],

@@ -1,9 +1,11 @@
-"""The pilot of a run: the cheapest (dx, tol) whose estimated level errors stay within the budget.
+"""The pilot of a run: the cheapest (dx, k, tol) whose estimated level errors stay within the budget.
 
-:func:`choose_setting` builds the reference of :mod:`roadtex.budget.study` on a few pilot segments,
-then bisects the candidate dx from the coarsest (cheapest) to the finest for the coarsest one
-within the budget in every budget band, each dx at the loosest tol and then at tighter ones only
-while the miss is smaller than what a tighter tol can gain (see :func:`tolerance_effect`).
+:func:`choose_setting` builds the reference of :mod:`roadtex.budget.study` on a few pilot segments
+(the data's grid refined until converged), then bisects the candidate model grids (the data
+resampled coarser, then the data's grid refined k times: :func:`roadtex.budget.study.default_settings`)
+from the coarsest (cheapest) to the finest for the coarsest one within the budget in every budget
+band, each at the loosest tol and then at tighter ones only while the miss is smaller than what a
+tighter tol can gain (see :func:`tolerance_effect`).
 When none is (``within_budget`` False: the data's sampling cannot meet the budget), it keeps the
 cheapest setting whose worst error is within 5 % (and 0.01 dB) of the smallest one evaluated.
 Forced settings (``forced_dx``, ``forced_tol``) restrict the search to them and are still estimated.
@@ -12,7 +14,7 @@ Forced settings (``forced_dx``, ``forced_tol``) restrict the search to them and 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -24,13 +26,15 @@ from roadtex.budget.study import (
     DEFAULT_PILOT_SEGMENTS,
     DEFAULT_TOLERANCES,
     REFERENCE_TOL,
+    REFINE_LADDER,
     Pilot,
     as_frame,
     build_pilot,
     candidate_rows,
     check_candidates,
-    default_dx_ladder,
+    default_settings,
 )
+from roadtex.models.grid import check_refine
 from roadtex.profiles.profile import Profile
 
 
@@ -40,8 +44,9 @@ class BudgetChoice:
 
     Attributes:
         dx: sampling interval to process the run with (m); ``Profile.conditioned(dx=...)``.
+        refine: the model grid's refinement k (the contact model solved every ``dx / k``).
         tol: solver tolerance to process the run with.
-        points: points per segment at ``dx``.
+        points: points per segment at ``dx`` (the model has ``points * refine``).
         budget_db: the budget (dB) the choice was made for.
         within_budget: whether ``worst_error_db`` <= ``budget_db``.
         band_error_db: band number -> upper estimate (dB) of the numerical error of that band's
@@ -51,13 +56,18 @@ class BudgetChoice:
         budget_bands: the band numbers the budget applies to (see :mod:`roadtex.budget.noise`).
         worst_error_db: the largest ``band_error_db`` over the budget bands (dB).
         seconds_per_metre: measured solve time at (dx, tol), every modulus, per metre of road (s/m).
-        finest_seconds_per_metre: the same at the finest setting (file dx, tol 1e-10) (s/m).
+        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
         pilot_seconds: wall time of the whole pilot (s).
         forced: whether dx or tol was forced.
         study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
+        reference_refine: K, the refinement of the pilot's reference (its converged answer).
+        interpolant_spread_db: band number -> the largest difference (dB) between the converged
+            enveloped and pressure levels of the linear road and those of the other interpolants:
+            what the data's sampling cannot tell (not a numerical error); empty when not measured.
     """
 
     dx: float
+    refine: int
     tol: float
     points: int
     budget_db: float
@@ -70,19 +80,29 @@ class BudgetChoice:
     pilot_seconds: float
     forced: bool
     study: pl.DataFrame
+    reference_refine: int = 1
+    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
+
+    @property
+    def model_dx(self) -> float:
+        """The model grid's interval, dx / refine (m)."""
+        return self.dx / self.refine
 
     @property
     def speedup(self) -> float:
-        """finest_seconds_per_metre / seconds_per_metre: how much cheaper the run is than at full resolution."""
+        """finest_seconds_per_metre / seconds_per_metre: how much cheaper the run is than at the reference (the converged grid)."""
         return self.finest_seconds_per_metre / self.seconds_per_metre
 
 
-def summarise(rows: list[dict]) -> dict[tuple[float, float], tuple[float, float, float]]:
-    """(dx, tol) -> (worst budget-band error dB, work per metre, seconds per metre). Settings are
-    compared by work (iterations x N log2 N), which the machine's load does not change."""
-    out: dict[tuple[float, float], tuple[float, float, float]] = {}
+Setting = tuple[float, int, float]   # (dx, refine, tol)
+
+
+def summarise(rows: list[dict]) -> dict[Setting, tuple[float, float, float]]:
+    """(dx, refine, tol) -> (worst budget-band error dB, work per metre, seconds per metre). Settings
+    are compared by work (iterations x N log2 N), which the machine's load does not change."""
+    out: dict[Setting, tuple[float, float, float]] = {}
     for row in rows:
-        key = (row["dx"], row["tol"])
+        key = (row["dx"], row["refine"], row["tol"])
         worst, work, seconds = out.get(key, (0.0, row["work_per_metre"], row["seconds_per_metre"]))
         if row["in_budget"]:
             worst = max(worst, row["level_error_db"])
@@ -91,10 +111,10 @@ def summarise(rows: list[dict]) -> dict[tuple[float, float], tuple[float, float,
 
 
 def tolerance_effect(rows: list[dict], pilot: Pilot) -> float:
-    """How much tightening the loosest tol can lower an estimate (dB), judged at the finest dx.
+    """How much tightening the loosest tol can lower an estimate (dB), judged on the finest grid.
 
-    At the file's dx an estimate at the loosest tol is (tol error) + (reference error), so the
-    tol error there is known. The solver's criterion is a gap relative to the profile's
+    On the reference's grid (file dx, k = K) an estimate at the loosest tol is (tol error) +
+    (reference error), so the tol error there is known. The solver's criterion is a gap relative to the profile's
     peak-to-valley height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the
     level errors shrink as dx grows, so the tol error at the finest dx bounds the gain at every
     coarser one (doubled for safety). With no finest-dx row every dx gets the tighter tolerances.
@@ -102,7 +122,8 @@ def tolerance_effect(rows: list[dict], pilot: Pilot) -> float:
     bands = pilot.bands["band"].to_list()
     gains = [max(r["enveloped_error_db"] - pilot.reference_error[0, bands.index(r["band"])],
                  r["pressure_error_db"] - pilot.reference_error[1, bands.index(r["band"])])
-             for r in rows if abs(r["dx"] - pilot.dx) <= 1e-9 * pilot.dx and r["in_budget"]]
+             for r in rows if abs(r["dx"] - pilot.dx) <= 1e-9 * pilot.dx and r["refine"] == pilot.refine
+             and r["in_budget"]]
     return 2.0 * max(gains) + 1e-3 if gains else float(np.inf)
 
 
@@ -114,12 +135,13 @@ def dxs_used(rows: list[dict], dx: float) -> float:
 def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
                    mean_pressure: float, segment_length: float = 0.5,
                    budget_db: float = DEFAULT_ERROR_BUDGET_DB, forced_dx: float | None = None,
-                   forced_tol: float | None = None, poisson: float = 0.5,
+                   forced_tol: float | None = None, forced_refine: int | None = None, poisson: float = 0.5,
                    n_segments: int = DEFAULT_PILOT_SEGMENTS, band_kind: str = "third_octave",
                    spike_alpha: float | None = None, dx_candidates: Sequence[float] | None = None,
                    tol_candidates: Sequence[float] | None = None, max_iterations: int = 2000,
-                   threads: int | None = None, include_reference_error: bool = True) -> BudgetChoice:
-    """The cheapest (dx, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
+                   threads: int | None = None, include_reference_error: bool = True,
+                   refine_candidates: Sequence[int] | None = None, interpolants: bool = True) -> BudgetChoice:
+    """The cheapest (dx, k, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
 
     Args:
         profile: a run as read (:func:`roadtex.read_profile`), or a sequence of runs of the same
@@ -130,10 +152,15 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         budget_db: largest numerical error (dB) allowed on any level in a budget band.
         forced_dx: process at this dx (m) whatever the budget (``--dx``); still estimated.
         forced_tol: process at this tol whatever the budget (``--tol``); still estimated.
+        forced_refine: solve on a model grid this many times finer than the data whatever the
+            budget (``--refine``); still estimated.
         poisson, band_kind, spike_alpha, max_iterations, threads: as in the job.
         n_segments: pilot segments, spread evenly along the run(s).
         dx_candidates, tol_candidates: override the candidate ladders (see :func:`convergence_study`).
         include_reference_error: as in :func:`convergence_study` (True: against the converged answer).
+        refine_candidates: model grid refinements to try (see :func:`convergence_study`).
+        interpolants: also measure what the sampling cannot tell (``interpolant_spread_db``: two
+            more solves of the pilot segments on the reference grid).
 
     Returns:
         A :class:`BudgetChoice`.
@@ -145,28 +172,35 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
     budget = positive(budget_db, "budget_db", "dB")
     forced_dx_f = None if forced_dx is None else positive(forced_dx, "forced_dx", "m")
     forced_tol_f = None if forced_tol is None else positive(forced_tol, "forced_tol", "relative residual")
+    forced_refine_k = None if forced_refine is None else check_refine(forced_refine, "forced_refine")
     dxs_given = check_candidates(dx_candidates, "dx_candidates")
     tols_given = check_candidates(tol_candidates, "tol_candidates")
+    refines_given = None if refine_candidates is None else [check_refine(k, "refine_candidates") for k in refine_candidates]
     pilot = build_pilot(profile, youngs_moduli=youngs_moduli, mean_pressure=mean_pressure, poisson=poisson,
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
-                        include_reference_error=include_reference_error)
-    dxs = [forced_dx_f] if forced_dx_f is not None else (dxs_given or default_dx_ladder(pilot))
+                        include_reference_error=include_reference_error, budget_db=budget, interpolants=interpolants)
+    dxs = [forced_dx_f] if forced_dx_f is not None else dxs_given
+    refines = [forced_refine_k] if forced_refine_k is not None else refines_given
+    if forced_dx_f is not None and refines is None:   # a forced interval refined up to the reference's model grid
+        refines = [k for k in REFINE_LADDER if forced_dx_f / k >= pilot.dx / pilot.refine * (1 - 1e-9)] or [1]
+    settings = default_settings(pilot, dxs, refines)
     tols = sorted([forced_tol_f] if forced_tol_f is not None else (tols_given or list(DEFAULT_TOLERANCES)),
                   reverse=True)
 
     rows: list[dict] = []
     slack = 0.0
     if len(tols) > 1:  # the tol error at the finest dx bounds what tighter tolerances can gain
-        rows.extend(candidate_rows(pilot, pilot.dx, tols[:1]))
+        rows.extend(candidate_rows(pilot, pilot.dx, tols[:1], pilot.refine))
         slack = tolerance_effect(rows, pilot)
 
-    def evaluate(dx: float) -> bool:
-        """Study rows at ``dx``, loosest tol first, tighter ones only while they can still help:
-        whether a setting at ``dx`` is within the budget."""
+    def evaluate(setting: tuple[float, int]) -> bool:
+        """Study rows at ``setting`` (dx, k), loosest tol first, tighter ones only while they can
+        still help: whether a setting there is within the budget."""
+        dx, k = setting
         for tol in tols:
-            done = [r for r in rows if r["tol"] == tol and abs(r["dx"] - dx) <= 1e-9 * dx]
-            new = done or candidate_rows(pilot, dx, [tol])
+            done = [r for r in rows if r["tol"] == tol and r["refine"] == k and abs(r["dx"] - dx) <= 1e-9 * dx]
+            new = done or candidate_rows(pilot, dx, [tol], k)
             if not done:
                 rows.extend(new)
             worst = max((r["level_error_db"] for r in new if r["in_budget"]), default=0.0)
@@ -176,11 +210,11 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                 return False
         return False
 
-    # Bisection over the intervals, coarse (cheap) to fine (dear): the coarsest one within the
-    # budget, assuming (as the level errors do, up to noise) that a finer interval errs less. It
+    # Bisection over the model grids, coarse (cheap) to fine (dear): the coarsest one within the
+    # budget, assuming (as the level errors do, up to noise) that a finer grid errs less. It
     # evaluates about log2 of the candidates instead of all of them (on data that need the file's
     # own interval, a coarse-to-fine walk solved every candidate).
-    ladder = sorted(dxs, reverse=True)
+    ladder = settings
     low, high = 0, len(ladder) - 1
     while low <= high:
         middle = (low + high) // 2
@@ -189,24 +223,28 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         else:
             low = middle + 1
     if not any(r["reference"] for r in rows):  # no solve: the pilot's own reference levels
-        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL]))
-    summary = summarise(rows)
-    if forced_dx_f is not None or forced_tol_f is not None:  # the reference is there for comparison only
-        summary = {k: v for k, v in summary.items() if (forced_dx_f is None or k[0] == dxs_used(rows, forced_dx_f))
-                   and (forced_tol_f is None or k[1] == forced_tol_f)}
+        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL], pilot.refine))
+    forced = forced_dx_f is not None or forced_tol_f is not None or forced_refine_k is not None
+    # only the candidate settings may be chosen: the reference is there for comparison only
+    allowed = {(dxs_used(rows, dx), k) for dx, k in settings}
+    summary = {key: v for key, v in summarise(rows).items()
+               if key[:2] in allowed and (forced_tol_f is None or key[2] == forced_tol_f)}
     within = {k: v for k, v in summary.items() if v[0] <= budget}
     if not within:
         # Out of reach (the data's own sampling cannot meet the budget): the cheapest setting whose
         # error is within 5 % (and 0.01 dB) of the smallest one evaluated, not the dearest solve.
         floor = min(v[0] for v in summary.values())
         within = {k: v for k, v in summary.items() if v[0] <= 1.05 * floor + 0.01}
-    key = min(within, key=lambda k: (within[k][1], -k[0]))
+    key = min(within, key=lambda k: (within[k][1], -k[0] / k[1]))
     worst, _, seconds = summary[key]
-    chosen = [r for r in rows if (r["dx"], r["tol"]) == key]
+    chosen = [r for r in rows if (r["dx"], r["refine"], r["tol"]) == key]
+    spread = pilot.interpolant_spread
     return BudgetChoice(
-        dx=key[0], tol=key[1], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,
+        dx=key[0], refine=key[1], tol=key[2], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,
         band_error_db={r["band"]: r["level_error_db"] for r in chosen},
         budget_bands=tuple(r["band"] for r in chosen if r["in_budget"]), worst_error_db=worst,
         seconds_per_metre=seconds, finest_seconds_per_metre=pilot.seconds_per_metre,
-        pilot_seconds=time.perf_counter() - started, forced=forced_dx_f is not None or forced_tol_f is not None,
-        study=as_frame(rows))
+        pilot_seconds=time.perf_counter() - started, forced=forced, study=as_frame(rows),
+        reference_refine=pilot.refine,
+        interpolant_spread_db={} if spread is None else
+        {int(b): float(v) for b, v in zip(pilot.bands["band"].to_list(), spread)})

@@ -1,31 +1,46 @@
-"""How the band levels of a run converge with the sampling interval and the solver tolerance.
+"""How the band levels of a run converge with the model grid, the sampling interval and the solver tolerance.
 
 The engine of the error budget (:func:`roadtex.budget.choose_setting`) and its public face,
-:func:`convergence_study`. For a run (or a group of runs of the same device and pavement):
+:func:`convergence_study`. A setting is (dx, k, tol): the run conditioned at the data interval dx,
+its segments joined into a continuous road by linear interpolation and solved on a model grid k
+times finer (dx / k, :mod:`roadtex.models.grid`), at solver tolerance tol. For a run (or a group
+of runs of the same device and pavement):
 
 1. **Reference**: the run conditioned at the file's own dx, cut into segments; a few *pilot*
-   segments, spread evenly along the run, are solved at the reference tolerance (1e-10).
-2. **Reference's own error** (Richardson, first order, from the two finest settings): the pilot
-   segments are also solved at dx / 2, each sample repeated twice (the same profile as the
-   interval-averaging resampler sees it: averaging it back to dx gives the file exactly). With an
-   error ~ C dx, the reference's error is 2 |L(dx / 2) - L(dx)|, spread to the whole run as in 4.
-3. **Candidates**: the run resampled to each candidate dx, the pilot segments solved at each
-   candidate tol; the difference of every level from the reference's.
+   segments, spread evenly along the run, are solved at the reference tolerance (1e-10) on model
+   grids k = 1, 2, 4, ... times finer than the data, until the levels have converged to a
+   quarter of the budget (:data:`REFERENCE_SHARE`) or the grid reaches
+   :data:`REFERENCE_MAX_POINTS` points per segment (:data:`MAX_REFINE` at most). The finest, k =
+   K, is the reference: the converged answer *for the road the samples describe*.
+2. **Reference's own error** (Richardson over the k sequence): with an error ~ C (dx / k)^p, the
+   reference's error is |L(K) - L(K / 2)| / (2^p - 1), p estimated from the last three grids
+   (pooled over the budget bands, clamped to [1, :data:`MAX_ORDER`]: the safe side), 1 when only
+   two grids were solved; spread to the whole run as in 4.
+3. **Candidates**: the data's grid refined k times (k <= K), and, where the data are finer than
+   the budget needs, the run resampled to coarser intervals (k = 1); the pilot segments solved at
+   each candidate tol; the difference of every level from the reference's.
 4. **Estimate** per (setting, band), each an upper estimate of |level - converged level| on any
    row of the run (any segment, any modulus):
 
-   - texture (resampling only, no solve): measured on *every* segment of the run, exactly;
+   - texture (resampling only, no solve): measured on *every* segment of the run, exactly; 0 on
+     the file's own interval (texture levels are the data's whatever the model grid);
    - enveloped and pressure levels: from the pilot rows (segments x moduli), the larger of their
      largest difference and the largest difference expected among all of the run's rows for
      differences of the pilot rows' root mean square (Gaussian extreme value: rms x sqrt(2 ln n),
      n the run's row count; each band pooled with its two neighbours), times SPREAD_FACTOR (2),
      plus the reference's own error (step 2).
 
+5. **What the sampling cannot tell** (:func:`interpolant_spread`): the reference grid solved again
+   with the other interpolants (monotone cubic, band-limited); the largest difference of their
+   converged levels from the linear one's, spread to the run as in 4. It is the data's
+   resolution, not the solver's error, and is stated apart from it.
+
 Time per metre is the wall time of the pilot solves (every modulus) per metre of pilot segments.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from dataclasses import dataclass
@@ -35,10 +50,11 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import poisson_ratio, positive, whole_number
-from roadtex.budget.noise import in_budget
+from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
 from roadtex.budget.sizes import five_smooth_ladder
 from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import INTERPOLANTS, Interpolant, refine_periodic
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.profile import Profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
@@ -56,6 +72,23 @@ DEFAULT_PILOT_SEGMENTS = 3
 #: Coarsest candidate sampling interval (m): the ISO 13473-1 MPD sampling.
 COARSEST_DX = 0.5e-3
 
+#: The reference grid stops refining once its own estimated error is at most this share of the budget.
+REFERENCE_SHARE = 0.25
+
+#: Largest reference grid, in points per segment (beyond it the reference stops refining, its own
+#: error stated as it stands); one refinement (k = 2) is always made, whatever the size.
+REFERENCE_MAX_POINTS = 2 ** 16
+
+#: Largest refinement of the reference grid.
+MAX_REFINE = 32
+
+#: Largest convergence order Richardson assumes from the k sequence (the safe side of the measured
+#: orders: 1.3 to 2.5 between successive halvings on CAPTIF averaged to 1 mm).
+MAX_ORDER = 1.5
+
+#: Candidate refinements of the data's grid, cheapest first (5-smooth: FFT-friendly when N is).
+REFINE_LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
+
 #: Safety factor on the pilot's extrapolation from its segments to the whole run. Level errors
 #: between segments are heavy-tailed (one segment may err 5 times more than the pilot's rms): on 8
 #: synthetic pavements x 10 settings x 6 bands (10 segments, 3 in the pilot) the pooled Gaussian
@@ -69,7 +102,8 @@ LADDER_RATIO = 1.2
 KINDS = ("texture", "enveloped", "pressure")
 
 STUDY_SCHEMA = {
-    "dx": pl.Float64, "points": pl.Int64, "tol": pl.Float64, "reference": pl.Boolean, "band": pl.Int64,
+    "dx": pl.Float64, "points": pl.Int64, "refine": pl.Int64, "model_dx": pl.Float64, "tol": pl.Float64,
+    "reference": pl.Boolean, "band": pl.Int64,
     "label": pl.String, "centre_wavelength": pl.Float64, "in_budget": pl.Boolean,
     "seconds_per_metre": pl.Float64, "work_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
     "pressure_error_db": pl.Float64, "level_error_db": pl.Float64, "pilot_segments": pl.Int64,
@@ -99,6 +133,11 @@ class Pilot:
     reference_error: np.ndarray      # (2, bands) reference's own error estimate
     seconds_per_metre: float
     work_per_metre: float
+    refine: int = 1                  # K: the reference's model grid is dx / K
+    order: float = 1.0               # the convergence order Richardson used
+    # k -> (levels, seconds per metre, work per metre) of the pilot segments at tol 1e-10 on each grid solved
+    sequence: dict[int, tuple[np.ndarray, float, float]] = dataclasses.field(default_factory=dict)
+    interpolant_spread: np.ndarray | None = None   # (bands,) what the sampling cannot tell (dB)
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -173,16 +212,20 @@ def solver_work(iterations: np.ndarray, points: int) -> float:
     return float(np.sum(iterations)) * points * np.log2(points)
 
 
-def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Enveloped and pressure levels (2, rows, bands) of ``heights`` at (dx, tol), reported flags,
-    seconds, and the work (:func:`solver_work`)."""
+def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refine: int = 1,
+                 interpolant: Interpolant = "linear") -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Enveloped and pressure levels (2, rows, bands) of ``heights`` (sampled every ``dx``) solved on
+    a model grid ``refine`` times finer at ``tol``, reported flags, seconds, and the work
+    (:func:`solver_work`)."""
     start = time.perf_counter()
-    batch = contact_many(heights, dx, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
+    model = refine_periodic(heights, refine, interpolant)
+    batch = contact_many(model, dx / refine, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
                          max_iterations=pilot.max_iterations, threads=pilot.threads, warm_start=True,
                          raise_on_nonconvergence=False)
     seconds = time.perf_counter() - start
-    levels, ok = contact_levels(batch.envelope, batch.pressure, dx, pilot.bands["band"].to_numpy(), pilot.band_kind)
-    return levels, ok, seconds, solver_work(batch.iterations, heights.shape[1])
+    levels, ok = contact_levels(batch.envelope, batch.pressure, dx / refine, pilot.bands["band"].to_numpy(),
+                                pilot.band_kind)
+    return levels, ok, seconds, solver_work(batch.iterations, model.shape[1])
 
 
 def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -195,7 +238,12 @@ def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
                 mean_pressure: float, poisson: float, segment_length: float, n_segments: int,
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
-                threads: int | None, include_reference_error: bool = True) -> Pilot:
+                threads: int | None, include_reference_error: bool = True,
+                budget_db: float = DEFAULT_ERROR_BUDGET_DB, max_refine: int = MAX_REFINE,
+                interpolants: bool = True) -> Pilot:
+    """The reference side of a study (module docstring, steps 1, 2 and 5): ``max_refine`` caps K;
+    ``interpolants`` False skips step 5; ``include_reference_error`` False solves the data's own
+    grid only (K = 1) and states no reference error."""
     profiles = as_profiles(profile)
     moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64))
     if moduli.size == 0 or not np.all(np.isfinite(moduli) & (moduli > 0)):
@@ -203,6 +251,8 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     count = whole_number(n_segments, "n_segments", 1)
     kind = check_band_kind(band_kind)
     length = positive(segment_length, "segment_length", "m")
+    budget = positive(budget_db, "budget_db", "dB")
+    largest_refine = whole_number(max_refine, "max_refine", 1)
     cleaned = cleaned_profiles(profiles, spike_alpha)
     heights, starts, dx = segments_of(cleaned, None, length)
     texture = band_levels(heights, dx, kind=kind, periodic=True)
@@ -216,17 +266,67 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                   length, kind, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0)
-    pilot.levels, _, seconds, work = solve_levels(pilot, heights[chosen], dx, REFERENCE_TOL)
-    pilot.seconds_per_metre = seconds / (chosen.size * length)
-    pilot.work_per_metre = work / (chosen.size * length)
-    if not include_reference_error:
+    pilot_heights = heights[chosen]
+    metres = chosen.size * length
+
+    def solve(k: int) -> np.ndarray:
+        levels, _, seconds, work = solve_levels(pilot, pilot_heights, dx, REFERENCE_TOL, k)
+        pilot.sequence[k] = (levels, seconds / metres, work / metres)
+        return levels
+
+    budget_rows = bands["in_budget"].to_numpy()
+    differences: list[np.ndarray] = []   # extreme |L(k) - L(k / 2)| per halving, (2, bands)
+    finest = solve(1)
+    k = 1
+    while include_reference_error and 2 * k <= largest_refine:
+        if k > 1 and heights.shape[1] * 2 * k > REFERENCE_MAX_POINTS:
+            break
+        finer = solve(2 * k)
+        differences.append(extreme(np.moveaxis(difference(finer, finest), 1, 0), pilot.run_rows))
+        finest, k = finer, 2 * k
+        converged = differences[-1][:, budget_rows] if budget_rows.any() else differences[-1]
+        if np.all(np.nan_to_num(converged, nan=0.0) <= REFERENCE_SHARE * budget):
+            break
+    pilot.refine = k
+    pilot.levels = finest
+    pilot.seconds_per_metre, pilot.work_per_metre = pilot.sequence[k][1], pilot.sequence[k][2]
+    if not differences:
         pilot.reference_error = np.zeros(pilot.levels[:, 0].shape)
         return pilot
-    halved, _, _, _ = solve_levels(pilot, np.repeat(heights[chosen], 2, axis=1), dx / 2, REFERENCE_TOL)
-    # Richardson, first order: L(dx) - L(0) ~ 2 (L(dx) - L(dx / 2)); spread to the run's rows as below.
-    # On CAPTIF the differences fall about 3 times per halving (order ~1.5), so order 1 is on the safe side.
-    pilot.reference_error = 2.0 * extreme(np.moveaxis(difference(halved, pilot.levels), 1, 0), pilot.run_rows)
+    pilot.order = convergence_order(differences, budget_rows)
+    pilot.reference_error = differences[-1] / (2.0 ** pilot.order - 1.0)
+    if interpolants:
+        pilot.interpolant_spread = interpolant_spread(pilot, pilot_heights)
     return pilot
+
+
+def convergence_order(differences: list[np.ndarray], budget_rows: np.ndarray) -> float:
+    """Richardson's order p from the last two halvings' differences (2, bands), pooled (rms) over
+    the budget bands, clamped to [1, MAX_ORDER]; 1 with one halving or no convergence to see."""
+    if len(differences) < 2:
+        return 1.0
+    rows = budget_rows if budget_rows.any() else np.ones(budget_rows.shape, bool)
+
+    def rms(values: np.ndarray) -> float:
+        finite = values[:, rows][np.isfinite(values[:, rows])]
+        return float(np.sqrt(np.mean(finite ** 2))) if finite.size else float("nan")
+
+    before, last = rms(differences[-2]), rms(differences[-1])
+    if not (np.isfinite(before) and np.isfinite(last)) or last <= 0.0 or before <= last:
+        return 1.0
+    return float(np.clip(np.log2(before / last), 1.0, MAX_ORDER))
+
+
+def interpolant_spread(pilot: Pilot, heights: np.ndarray) -> np.ndarray:
+    """The largest difference (dB, per band) between the converged enveloped and pressure levels of
+    the linear road and those of the other interpolants (:data:`roadtex.models.grid.INTERPOLANTS`),
+    on the reference grid, spread to the run's rows as the errors are: what the data's sampling
+    cannot tell about the road between its readings."""
+    spread = np.zeros(pilot.bands.height)
+    for interpolant in INTERPOLANTS[1:]:
+        levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, pilot.refine, interpolant)  # type: ignore[arg-type]
+        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, pilot.levels), 1, 0), pilot.run_rows).max(axis=0))
+    return spread
 
 
 def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
@@ -259,10 +359,11 @@ def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int
     return np.where(ok, error, np.inf), heights[match(starts, pilot.pilot)], heights.shape[1]
 
 
-def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]:
-    """One study row per (tol, band) at ``dx`` (the reference's own rows when dx is the reference's)."""
-    is_reference_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
-    if is_reference_dx:
+def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int = 1) -> list[dict]:
+    """One study row per (tol, band) for the data at ``dx`` on a model grid ``refine`` times finer
+    (the reference's own rows at the file's dx, the reference's refinement and tol 1e-10)."""
+    is_file_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
+    if is_file_dx:
         texture = np.zeros(pilot.bands.height)
         heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
         heights = heights[match(pilot.starts, pilot.pilot)]
@@ -270,22 +371,23 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float]) -> list[dict]
     else:
         texture, heights, points = texture_errors(pilot, dx)
         used = pilot.segment_length / points
+    metres = heights.shape[0] * pilot.segment_length
     rows = []
     for tol in tols:
-        if is_reference_dx and tol == REFERENCE_TOL:
-            solved, seconds_per_metre, ok = pilot.levels, pilot.seconds_per_metre, np.ones(pilot.bands.height, bool)
-            work_per_metre = pilot.work_per_metre
+        is_reference = is_file_dx and tol == REFERENCE_TOL and refine == pilot.refine
+        if is_file_dx and tol == REFERENCE_TOL and refine in pilot.sequence:
+            solved, seconds_per_metre, work_per_metre = pilot.sequence[refine]
+            ok = np.ones(pilot.bands.height, bool)
         else:
-            solved, ok, seconds, work = solve_levels(pilot, heights, used, tol)
-            seconds_per_metre = seconds / (heights.shape[0] * pilot.segment_length)
-            work_per_metre = work / (heights.shape[0] * pilot.segment_length)
+            solved, ok, seconds, work = solve_levels(pilot, heights, used, tol, refine)
+            seconds_per_metre, work_per_metre = seconds / metres, work / metres
         measured = np.where(ok, difference(solved, pilot.levels), np.nan)  # NaN: not reported at dx
         errors = SPREAD_FACTOR * extreme(np.moveaxis(measured, 1, 0), pilot.run_rows) + pilot.reference_error
         errors = np.where(ok, errors, np.inf)
         for j, band in enumerate(pilot.bands.iter_rows(named=True)):
             row = {
-                "dx": used, "points": points, "tol": float(tol),
-                "reference": bool(is_reference_dx and tol == REFERENCE_TOL), "band": band["band"],
+                "dx": used, "points": points, "refine": int(refine), "model_dx": used / refine, "tol": float(tol),
+                "reference": bool(is_reference), "band": band["band"],
                 "label": band["label"], "centre_wavelength": band["centre_wavelength"],
                 "in_budget": band["in_budget"], "seconds_per_metre": seconds_per_metre,
                 "work_per_metre": work_per_metre,
@@ -308,6 +410,22 @@ def default_dx_ladder(pilot: Pilot) -> list[float]:
     return [pilot.dx] + [pilot.segment_length / n for n in ladder]
 
 
+def default_settings(pilot: Pilot, dxs: Sequence[float] | None = None,
+                     refines: Sequence[int] | None = None) -> list[tuple[float, int]]:
+    """Candidate (dx, k) settings from the coarsest model grid to the finest: the data resampled
+    to each of ``dxs`` (default :func:`default_dx_ladder`) on its own grid, then the file's dx
+    refined by each of ``refines`` (default :data:`REFINE_LADDER` up to the reference's K). Given
+    ``refines`` apply to every dx."""
+    dx_list = list(dxs) if dxs is not None else default_dx_ladder(pilot)
+    if refines is not None:
+        settings = [(dx, int(k)) for dx in dx_list for k in refines]
+    else:
+        settings = [(dx, 1) for dx in dx_list]
+        settings += [(pilot.dx, k) for k in REFINE_LADDER if 1 < k <= pilot.refine
+                     and any(abs(dx - pilot.dx) <= 1e-9 * pilot.dx for dx in dx_list)]
+    return sorted(set(settings), key=lambda s: (-s[0] / s[1], s[1]))
+
+
 def check_candidates(values: Sequence[float] | None, name: str) -> list[float] | None:
     if values is None:
         return None
@@ -318,7 +436,7 @@ def check_candidates(values: Sequence[float] | None, name: str) -> list[float] |
 
 
 def as_frame(rows: list[dict]) -> pl.DataFrame:
-    return pl.DataFrame(rows, schema=STUDY_SCHEMA).sort("dx", "tol", "band")
+    return pl.DataFrame(rows, schema=STUDY_SCHEMA).sort("dx", "refine", "tol", "band")
 
 
 def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: float | Sequence[float],
@@ -326,8 +444,10 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
                       dx_candidates: Sequence[float] | None = None, tol_candidates: Sequence[float] | None = None,
                       n_segments: int = DEFAULT_PILOT_SEGMENTS, band_kind: str = "third_octave",
                       spike_alpha: float | None = None, max_iterations: int = 2000,
-                      threads: int | None = None, include_reference_error: bool = True) -> pl.DataFrame:
-    """The pilot's table: the estimated level error and the cost of every (dx, tol) candidate.
+                      threads: int | None = None, include_reference_error: bool = True,
+                      refine_candidates: Sequence[int] | None = None,
+                      budget_db: float = DEFAULT_ERROR_BUDGET_DB) -> pl.DataFrame:
+    """The pilot's table: the estimated level error and the cost of every (dx, k, tol) candidate.
 
     Args:
         profile: a run as read (:func:`roadtex.read_profile`), or a sequence of runs of the same
@@ -343,13 +463,19 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
         band_kind: "third_octave" or "octave".
         spike_alpha: the job's spike criterion for conditioning (None: none).
         max_iterations, threads: passed to :func:`roadtex.contact_many`.
-        include_reference_error: True (default): errors against the converged answer, the
-            reference's own error included (an extra solve at dx / 2); False: errors against the
-            full-resolution result (file dx, tol 1e-10), whose own error is then left out.
+        include_reference_error: True (default): errors against the converged answer (the data's
+            grid refined until converged, see the module docstring), the reference's own error
+            included; False: errors against the data's own grid (file dx, k = 1, tol 1e-10),
+            whose own error is then left out.
+        refine_candidates: model grid refinements k to try on every dx (None: the file's dx
+            refined 2, 3, 4, 6, ... times up to the reference's).
+        budget_db: the budget (dB) the reference converges to a quarter of.
 
     Returns:
-        A polars table, one row per (dx, tol, band) for the bands reported at the file's dx:
-        ``dx`` (m), ``points`` (per segment), ``tol``, ``reference`` (the file's dx at tol 1e-10),
+        A polars table, one row per (dx, k, tol, band) for the bands reported at the file's dx:
+        ``dx`` (m, the data's interval), ``points`` (per segment at dx), ``refine`` (k),
+        ``model_dx`` (m, dx / k), ``tol``, ``reference`` (the file's dx at the reference's k and
+        tol 1e-10),
         ``band``, ``label``, ``centre_wavelength`` (m), ``in_budget`` (a tyre/road noise band, see
         :mod:`roadtex.budget.noise`), ``seconds_per_metre`` (wall time of the solves, every
         modulus, per metre of road), ``texture_error_db``, ``enveloped_error_db``,
@@ -363,10 +489,11 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
     pilot = build_pilot(profile, youngs_moduli=youngs_modulus, mean_pressure=mean_pressure, poisson=poisson,
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
-                        include_reference_error=include_reference_error)
-    dxs = check_candidates(dx_candidates, "dx_candidates") or default_dx_ladder(pilot)
+                        include_reference_error=include_reference_error, budget_db=budget_db, interpolants=False)
+    refines = None if refine_candidates is None else [whole_number(k, "refine_candidates", 1) for k in refine_candidates]
+    settings = default_settings(pilot, check_candidates(dx_candidates, "dx_candidates"), refines)
     tols = check_candidates(tol_candidates, "tol_candidates") or list(DEFAULT_TOLERANCES)
     rows: list[dict] = []
-    for dx in dxs:
-        rows.extend(candidate_rows(pilot, dx, tols))
+    for dx, k in settings:
+        rows.extend(candidate_rows(pilot, dx, tols, k))
     return as_frame(rows)

@@ -14,7 +14,7 @@ from contextvars import ContextVar
 
 import numpy as np
 
-from roadtex.errors import ImplausibleTextureWarning
+from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning
 from roadtex.profiles.conditioning import gross_outliers
 from roadtex.profiles.trend import remove_lines
 
@@ -32,6 +32,16 @@ PLAUSIBLE_MIN_RMS = 10e-6
 #: Coarsest sampling interval (m) of a texture profile: texture profilometers sample at 1 mm or
 #: finer (ISO 13473-1). Distances in mm read as metres make dx 1000 times too coarse (10 mm to 1 m).
 PLAUSIBLE_MAX_DX = 5e-3
+
+#: Longest wavelength of road texture (m): megatexture ends at 0.5 m (ISO 13473-1, ISO 13473-4).
+TEXTURE_MAX_WAVELENGTH = 0.5
+
+#: Metadata key a reader sets (to where the unit of the file's distances comes from, e.g. "m (OpenCRG)",
+#: "mm (the file's header)", "mm (given for the file)") when that unit is certain: stated by the
+#: format, the file's header or the caller, not assumed (a heights-only file's bare dx, a .npy's
+#: default metres). Such a file is never taken for distances in mm read as m for its interval
+#: alone: above PLAUSIBLE_MAX_DX it is processed, with a CoarseSamplingWarning.
+DISTANCE_UNIT_STATED = "distance_unit_stated"
 
 #: Rows longer than two of these (m) are judged stretch by stretch, each with its own line (or
 #: median) removed: a long run's grades and vertical curves are road geometry, not texture, and
@@ -64,8 +74,43 @@ def judged_once() -> Iterator[None]:
         _JUDGED.reset(token)
 
 
+def stated_distance_unit(metadata: dict[str, object]) -> str | None:
+    """Where the unit of a read file's distances comes from (:data:`DISTANCE_UNIT_STATED`), or None
+    when it was assumed."""
+    value = metadata.get(DISTANCE_UNIT_STATED)
+    return value if isinstance(value, str) and value else None
+
+
+def set_distance_unit(metadata: dict[str, object], stated: str | None) -> dict[str, object]:
+    """``metadata`` (changed in place and returned) with :data:`DISTANCE_UNIT_STATED` set to
+    ``stated``, or removed when None: a reader decides it for every file it reads, never keeping
+    one from stored metadata (a sidecar's dx is a bare number, whatever an earlier read found)."""
+    metadata.pop(DISTANCE_UNIT_STATED, None)
+    if stated:
+        metadata[DISTANCE_UNIT_STATED] = stated
+    return metadata
+
+
+def coarse_sampling(dx: float, name: str, stated: str | None = None) -> str | None:
+    """What to tell the user about a file ``name`` sampled every ``dx`` (m) when that is above
+    :data:`PLAUSIBLE_MAX_DX` and the file is processed all the same (its distance unit ``stated``,
+    or the caller allowed it), or None when ``dx`` is within it."""
+    if not (np.isfinite(dx) and dx > PLAUSIBLE_MAX_DX):
+        return None
+    unit = f"its distances' unit is {stated}, so" if stated else "its distances' unit is not stated, yet"
+    # no texture wavelength resolved at all: a unit stated wrongly is likelier than such a survey
+    none = (f" At that interval it resolves no texture wavelength (up to {TEXTURE_MAX_WAVELENGTH * 1e3:g} mm): "
+            "were its distances in millimetres?") if 2.5 * dx > TEXTURE_MAX_WAVELENGTH else ""
+    return (f"{name}: sampled every {dx * 1e3:.4g} mm, more coarsely than texture profilometers (1 mm or finer, "
+            f"ISO 13473-1; roadtex's plausible limit is {PLAUSIBLE_MAX_DX * 1e3:g} mm); {unit} the interval is taken "
+            "as read. Only the bands its sampling resolves are reported (wavelengths from 2.5 times its interval: "
+            "the shorter bands' rows are marked not reported, with the reason); its MPD and contact measures "
+            f"describe straight chords between readings that far apart.{none}")
+
+
 def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str = "segment",
-                        measured: bool = True, skip_codes: bool | None = None) -> str | None:
+                        measured: bool = True, skip_codes: bool | None = None,
+                        interval_stated: bool = False) -> str | None:
     """Why ``heights`` (m; one row per ``row``: a segment, or a surface row along the road)
     cannot be a road texture profile in metres, or None.
 
@@ -78,7 +123,9 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     the bulk job (which refuses the run). With ``measured`` (a file read, the bulk job's runs) it
     also refuses heights too small for a road (rms below :data:`PLAUSIBLE_MIN_RMS`: mm read as um) and
     a sampling too coarse for texture (dx above :data:`PLAUSIBLE_MAX_DX`: distances in mm read as
-    m); the solvers and spectra, which also take model problems, check the upper limits only.
+    m), unless ``interval_stated`` (the file's distance unit is certain, :func:`stated_distance_unit`:
+    a coarse interval is then the data's, see :func:`coarse_sampling`); the solvers and spectra,
+    which also take model problems, check the upper limits only.
     """
     rows = np.atleast_2d(np.asarray(heights, dtype=np.float64))
     # In a file, drop-out codes (a -850 mm reading among mm of texture) say nothing about the
@@ -112,7 +159,7 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
                  | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
         large &= judgeable
         small = (rms < PLAUSIBLE_MIN_RMS) & ~large & judgeable if measured else np.zeros_like(large)
-    coarse = measured and dx > PLAUSIBLE_MAX_DX
+    coarse = measured and not interval_stated and dx > PLAUSIBLE_MAX_DX
     bad = large | small | coarse
     if not bad.any():
         return None
@@ -163,13 +210,19 @@ def less_medians(rows: np.ndarray) -> np.ndarray:
 
 def warn_if_implausible_texture(heights: np.ndarray, dx: float, name: str, *, stacklevel: int = 3,
                                 row: str = "segment", measured: bool = False,
-                                skip_codes: bool | None = None) -> None:
+                                skip_codes: bool | None = None, stated: str | None = None) -> None:
     """Warns (ImplausibleTextureWarning) when any row of ``heights`` (m) cannot be a road profile
     (see :func:`implausible_texture`; ``row`` names what a row is; ``measured`` for a file read;
-    ``skip_codes`` to leave drop-out codes out); the computation goes on as given. Silent inside
+    ``skip_codes`` to leave drop-out codes out; ``stated``: where the file's distance unit comes
+    from, None when assumed); the computation goes on as given. A file read (``measured``) whose
+    unit is ``stated`` and whose interval alone is above :data:`PLAUSIBLE_MAX_DX` gets a
+    :class:`~roadtex.errors.CoarseSamplingWarning` instead (:func:`coarse_sampling`). Silent inside
     :func:`judged_once`."""
     if _JUDGED.get():
         return
-    reason = implausible_texture(heights, dx, name, row=row, measured=measured, skip_codes=skip_codes)
+    reason = implausible_texture(heights, dx, name, row=row, measured=measured, skip_codes=skip_codes,
+                                 interval_stated=stated is not None)
     if reason is not None:
         warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)
+    elif measured and stated is not None and (note := coarse_sampling(dx, name, stated)) is not None:
+        warnings.warn(note, CoarseSamplingWarning, stacklevel=stacklevel)

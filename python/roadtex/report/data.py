@@ -66,9 +66,10 @@ def modulus_label(e: float) -> str:
 
 def legend_outside(fig, ax=None, **kwargs):
     """One legend for the figure, outside every axes (right, top aligned), with the labelled artists
-    of ``ax`` (default: of all axes, each label once). Needs a figure with constrained layout."""
+    of ``ax`` (an axes or a list of them, the first artist of each label kept; default: of all
+    axes, each label once). Needs a figure with constrained layout."""
     handles: dict[str, Any] = {}
-    for source in ([ax] if ax is not None else fig.axes):
+    for source in (fig.axes if ax is None else list(ax) if isinstance(ax, (list, tuple)) else [ax]):
         for handle, label in zip(*source.get_legend_handles_labels()):
             handles.setdefault(label, handle)
     return fig.legend(list(handles.values()), list(handles), loc="outside right upper", **kwargs)

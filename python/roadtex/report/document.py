@@ -10,9 +10,10 @@ needed) plus every figure as PNG and SVG in ``figures/``.
 
 The document holds: a summary; the failed runs (from ``errors.parquet``, or a line saying there
 were none); per run the results (MPD, contact fraction per E, mean texture level) and the
-conditioning facts (sampling intervals, solver tolerance, trimmed length, reference plates, share
+conditioning facts (sampling intervals, model grid, solver tolerance, trimmed length, reference plates, share
 of readings removed, warnings, MPD validity); the numerical error per band (the error budget, the
-setting used, whether it was met, the speed-up, and each band's estimated error; see
+setting used (dx, k, tol), whether it was met, the speed-up, each band's estimated error and, apart
+from it, what the data's sampling cannot tell and the bands it makes sampling-limited; see
 :mod:`~roadtex.report.error_budget`); the figures; the regressions of figure "pressure against
 texture". Figures are numbered by their order in the document (Figure 1, 2, ...); each caption says
 which figure of the INRETS report (Klein & Hamet, the seed) it reproduces: 2.1 von Meier envelopes
@@ -55,7 +56,13 @@ from roadtex.report.data import (
     pyplot,
     tolerance,
 )
-from roadtex.report.error_budget import band_error_table, budget_summary, fig_setting_speed_vs_error, pilot_state
+from roadtex.report.error_budget import (
+    band_error_table,
+    budget_summary,
+    fig_setting_speed_vs_error,
+    pilot_state,
+    sampling_summary,
+)
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
 from roadtex.report.surface_figures import (
@@ -79,15 +86,19 @@ FIGURES: dict[str, str] = {
                            "von Meier (d* = 0.054 1/mm) against INRETS at several E; negative where the rubber "
                            "stays above that line."),
     "texture_spectra": (f"Texture spectra (band levels, {TEXTURE_DB}) of enveloped profiles (top) and their "
-                        "difference from the original profile (bottom)."),
-    "pressure_spectra": f"Band spectra of the contact pressure ({PRESSURE_DB}).",
+                        "difference from the original profile (bottom). Hatched: sampling-limited bands, where "
+                        "what the data's sampling cannot tell exceeds the error budget."),
+    "pressure_spectra": (f"Band spectra of the contact pressure ({PRESSURE_DB}). Hatched: sampling-limited "
+                         "bands, where what the data's sampling cannot tell exceeds the error budget."),
     "pressure_vs_texture": (f"Pressure level ({PRESSURE_DB}) against enveloped texture level ({TEXTURE_DB}) "
                             "per octave band, one regression line per E."),
     "setting_speed_vs_error": (
         "Speed against error of the processed archive: for each device/pavement group, every setting "
-        "(sampling interval dx, solver tolerance tol) the error-budget pilot evaluated, its measured solve time "
-        "per km of road (every modulus) against its worst estimated level error in the tyre/road noise bands; "
-        "the chosen setting starred, the finest (reference) setting boxed, the budget dashed. The pilot chooses "
+        "(sampling interval dx, model grid k times finer than the data's, solver tolerance tol) the error-budget "
+        "pilot evaluated, each point labelled dx (mm)×k, its measured solve time per km of road (every modulus) "
+        "against its worst estimated level error in the tyre/road noise bands; the group's chosen (dx, k, tol) "
+        "starred, the reference (the data's grid refined K times, the converged answer) boxed, the budget "
+        "dashed. The pilot chooses "
         "by solver work (iterations × N log₂ N), which the machine's load does not move; the times shown are "
         "measured."),
     "speed_vs_error": "Solver speed against error (from the benchmark data).",
@@ -202,7 +213,8 @@ def run_table(results: Results) -> pl.DataFrame:
 
 #: runs.parquet's conditioning columns, their headings in the report and the factor to those units.
 CONDITIONING: dict[str, tuple[str, float]] = {
-    "file_dx": ("file dx (mm)", MM), "dx": ("dx (mm)", MM), "dx_used": ("dx (mm)", MM), "tol_used": ("tol", 1.0),
+    "file_dx": ("file dx (mm)", MM), "dx": ("dx (mm)", MM), "dx_used": ("dx (mm)", MM),
+    "refine": ("k (model grid dx / k)", 1.0), "model_dx": ("model dx (mm)", MM), "tol_used": ("tol", 1.0),
     "raw_length": ("read (m)", 1.0),
     "trimmed_length": ("trimmed (mm)", MM), "plates": ("reference plates", 1.0),
     "dropout_fraction": ("drop-outs (%)", 100.0), "spike_fraction": ("spikes (%)", 100.0),
@@ -213,10 +225,10 @@ CONDITIONING: dict[str, tuple[str, float]] = {
 
 def conditioning_table(results: Results) -> pl.DataFrame:
     """Per run, what conditioning did (runs.parquet): the file's and the job's sampling interval
-    (mm), the length read (m) and trimmed (mm), the reference plates found, the share of readings
-    that were drop-outs, spikes and outliers (%), the warnings, and MPD (mm, null where undefined)
-    with its ISO 13473-1 validity and valid/all baselines. Columns missing from an older job's
-    table are left out."""
+    (mm), the model grid's refinement k and interval (mm), the solver tolerance, the length read
+    (m) and trimmed (mm), the reference plates found, the share of readings that were drop-outs,
+    spikes and outliers (%), the warnings, and MPD (mm, null where undefined) with its ISO 13473-1
+    validity and valid/all baselines. Columns missing from an older job's table are left out."""
     runs = results.runs
     columns: list[pl.Expr] = [pl.col("run_id")]
     for name, (heading, factor) in CONDITIONING.items():
@@ -243,7 +255,7 @@ def error_table_section(results: Results) -> str:
         return ""
     return ("<p>Upper estimates of the numerical error of every level of each band (bands.parquet "
             "level_error_db is the job's column), and per pilot group at its own chosen setting:</p>"
-            + html_table(table, classes="band-errors"))
+            + html_table(table, classes="band-errors") + sampling_summary(results))
 
 
 def failure_table(results: Results) -> pl.DataFrame:
@@ -314,7 +326,7 @@ def regression_table(regressions: pl.DataFrame) -> pl.DataFrame:
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 figure{margin:1.5em 0}figcaption{font-size:0.9em;color:#444}img{max-width:100%}
 table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #ccc;padding:2px 6px;text-align:right}
-th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-child,.failures td,.conditioning td:nth-child(7),
+th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-child,.failures td,.conditioning td:nth-child(9),
 .conditioning td:last-child{text-align:left}"""
 
 
@@ -378,7 +390,8 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "<h2>Failed runs</h2>", failure_section(results),
         "<h2>Runs</h2>", html_table(run_table(results), classes="runs"),
         "<h2>Conditioning of each run</h2>",
-        "<p>Sampling intervals (the file's, and the job's one dx for all runs) and solver tolerance, length read and trimmed away "
+        "<p>Sampling intervals (the file's, and the job's one dx for all runs), the model grid the contact model was "
+        "solved on (k times finer than dx, every model dx) and solver tolerance, length read and trimmed away "
         "with the reference plates, share of readings that were drop-outs, spikes or outliers (replaced by "
         "interpolation), and MPD (ISO 13473-1) with its validity; n/a where MPD is undefined. A 100 mm baseline is "
         "valid when at most 10 % of its raw readings are drop-outs and at most 5 % spikes; MPD is valid when at "

@@ -20,6 +20,29 @@ def band_axis(ax, labels: list[str], kind: str) -> None:
     ax.set_xlabel(f"{'octave' if kind == 'octave' else 'one-third-octave'} band, centre wavelength (mm)")
 
 
+#: The legend's name of a hatched band: what the data's sampling cannot tell exceeds the budget there.
+LIMITED_LABEL = "sampling-limited band (interpolant spread above the error budget)"
+
+
+def sampling_limited(results: Results) -> dict[str, set[int]]:
+    """Per group (:meth:`~roadtex.report.data.Results.run_groups`), the bands that bands.parquet
+    flags ``sampling_limited`` for any of its runs (none when the column is absent or null)."""
+    if "sampling_limited" not in results.bands.columns:
+        return {}
+    flagged = (results.bands.filter(pl.col("sampling_limited").fill_null(False))
+               .join(results.run_groups(), on="run_id", how="left")
+               .group_by("group").agg(pl.col("band").unique()))
+    return {str(group): set(bands) for group, bands in flagged.iter_rows()}
+
+
+def hatch_limited(ax, bands: set[int], position: dict[int, int]) -> None:
+    """A hatched span behind each sampling-limited band (gid "sampling_limited"): its contact
+    levels are bounded by the data's resolution, not by the solver."""
+    for band in sorted(b for b in bands if b in position):
+        ax.axvspan(position[band] - 0.5, position[band] + 0.5, facecolor="none", edgecolor="0.75", hatch="///",
+                   lw=0.0, zorder=0, label=LIMITED_LABEL, gid="sampling_limited")
+
+
 def mean_spectra(results: Results, level: str) -> pl.DataFrame:
     group = "group"
     bands = results.bands.join(results.run_groups(), on="run_id", how="left")
@@ -36,6 +59,7 @@ def fig_texture_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = enveloped[group].unique(maintain_order=True).to_list()
+    limited = sampling_limited(results)
     fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
                              layout="constrained")
     for column, name in enumerate(groups):
@@ -52,8 +76,10 @@ def fig_texture_spectra(plt, results: Results):
         top.set(title=str(name), ylabel=f"texture level L_tx ({TEXTURE_DB})")
         bottom.set(ylabel="enveloped − original level (dB)")
         bottom.axhline(0, color="0.5", lw=0.7)
+        for ax in (top, bottom):   # the enveloped levels are the contact model's
+            hatch_limited(ax, limited.get(str(name), set()), position)
         band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
-    legend_outside(fig, axes[0, 0])
+    legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
 
 
@@ -63,6 +89,7 @@ def fig_pressure_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = spectra[group].unique(maintain_order=True).to_list()
+    limited = sampling_limited(results)
     fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
                              layout="constrained")
     for ax, name in zip(axes[0], groups):
@@ -70,10 +97,11 @@ def fig_pressure_spectra(plt, results: Results):
             rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
             ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
                     marker=".", label=modulus_label(e))
+        hatch_limited(ax, limited.get(str(name), set()), position)
         ax.set_title(str(name))
         band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
     axes[0, 0].set_ylabel(f"pressure level L_p ({PRESSURE_DB})")
-    legend_outside(fig, axes[0, 0])
+    legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
 
 

@@ -5,7 +5,7 @@ the areal contact model, readers (2-D npy, long tables in Parquet or CSV, OpenCR
 
 from roadtex.surfaces.readers import read_surface
 from roadtex.surfaces.surface import Surface
-from roadtex.surfaces.synthetic import synthetic_surface
+from roadtex.surfaces.synthetic import sett_surface, synthetic_surface
 from roadtex.surfaces.tiles import Tiles
 
-__all__ = ["Surface", "Tiles", "read_surface", "synthetic_surface"]
+__all__ = ["Surface", "Tiles", "read_surface", "sett_surface", "synthetic_surface"]

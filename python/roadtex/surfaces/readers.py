@@ -13,11 +13,18 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number
-from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.plausibility import set_distance_unit, stated_distance_unit, warn_if_implausible_texture
 from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
 from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
-from roadtex.profiles.readers.text import DROPOUT_TOKENS, column_unit, first_lines, pick_column, split_column_name
+from roadtex.profiles.readers.text import (
+    DROPOUT_TOKENS,
+    column_unit,
+    first_lines,
+    pick_column,
+    split_column_name,
+    stated_unit,
+)
 from roadtex.profiles.units import unit_factor
 from roadtex.surfaces.surface import Surface
 
@@ -134,7 +141,10 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
     Warns:
         ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
             (millimetres read as metres or as micrometres, distances in millimetres read as
-            metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does.
+            metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does;
+            a spacing dx above 5 mm only where its unit is assumed (a ``.npy``'s or a given ``dx``).
+        CoarseSamplingWarning: dx above 5 mm whose unit is certain (OpenCRG, which is in metres by
+            definition, or a long table's positions with their unit stated or given): read as it is.
 
     Raises:
         ProfileFormatError: the file is missing, empty, unreadable, not a grid, or has no usable
@@ -162,7 +172,8 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
             raise
         raise type(exc)(f"{name}: {exc}") from None
     # as read_profile: heights or spacings in the wrong unit warn (the bulk job refuses the run)
-    warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True)
+    warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True,
+                                stated=stated_distance_unit(surface.metadata))
     return surface
 
 
@@ -198,6 +209,7 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
     dx = positive(options["dx"], "dx")
     dy = positive(options["dy"], "dy") if options.get("dy") is not None else dx
     factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
+    set_distance_unit(metadata, None)   # dx is a bare number (m assumed)
     return finish(name, "npy", array.astype(np.float64) * factor, dx, dy, metadata, history)
 
 
@@ -351,6 +363,9 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
     heights = np.full(shape[0] * shape[1], np.nan)
     heights[flat] = z
     metadata: dict[str, object] = {"format": fmt}
+    # x's unit is the header's or the given one (required above); a dx given is kept only within 1 %
+    # of the positions' own spacing (grid_index)
+    set_distance_unit(metadata, stated_unit(names, picked[0], options.get("distance_unit")))
     return finish(name, fmt, heights.reshape(shape), dx, dy, metadata, [], x0, y0)
 
 
@@ -383,4 +398,6 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
     heights = np.asarray(grid.z, dtype=np.float64).T * factor
     metadata: dict[str, object] = {"format": "crg", "crg_data_format": str(getattr(header, "data_format", "")),
                                    "crg_comment": "\n".join(getattr(header, "comment", None) or [])}
+    # OpenCRG is in metres by definition; a dx given instead of the file's increment is a bare number
+    set_distance_unit(metadata, "m (OpenCRG)" if options.get("dx") is None else None)
     return finish(name, "crg", heights, dx, dy, metadata, [], float(grid.u[0]), float(v[0]))

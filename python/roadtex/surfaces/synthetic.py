@@ -187,3 +187,110 @@ def correlated_noise(shape: tuple[int, int], dx: float, dy: float, correlation: 
     shaped = np.fft.irfft2(np.fft.rfft2(white) * filt, shape)
     sd = shaped.std()
     return shaped / sd if sd > 0 else shaped
+
+
+#: Defaults of :func:`sett_surface` (m; ``*_sd`` standard deviations, ``tilt_sd`` a slope): a
+#: Belgian-block (sett) pavement as laid in cities, granite setts of about 15 cm along the road
+#: by 10 cm across in courses across the road, each course offset from the last (stretcher bond),
+#: joints 1 to 2 cm wide filled with sand or mortar a few mm to 1 cm below the setts' edges.
+SETT_DEFAULTS: dict[str, float] = dict(
+    sett_length=0.15, sett_width=0.10, size_spread=0.05, joint_min=0.010, joint_max=0.020,
+    joint_depth_min=0.003, joint_depth_max=0.010, crown=0.002, top_sd=0.0007, tilt_sd=0.004,
+    edge_radius=0.004, roughness_sd=0.0003)
+
+
+def sett_surface(length: float, width: float, dx: float = 0.01, dy: float | None = None, *, seed: int = 0,
+                 **options: float) -> Surface:
+    """A reproducible synthetic Belgian-block (sett) surface: the coarse pavement that OpenCRG road
+    files describe at 1 cm and more (the cobblestones of old city streets and test tracks).
+
+    Courses of setts run across the road, one after another along it: course ``k`` is a sett
+    length along the road (``sett_length`` x (1 -+ ``size_spread``)), its setts ``sett_width`` (same
+    spread) across, the course's transverse joints offset by about half a sett from the previous
+    course's. Every joint is ``joint_min`` to ``joint_max`` wide (uniform) and its fill lies
+    ``joint_depth_min`` to ``joint_depth_max`` below the setts' edges (uniform, one depth per joint).
+    Each sett's top is a dome ``crown`` high at its centre above its edges (parabolic both ways),
+    raised by a random level (``top_sd``) and tilted (slopes ``tilt_sd`` each way), its arrises
+    rounded (radius ``edge_radius``); white roughness (``roughness_sd``) lies on setts and joints.
+
+    Args:
+        length: length along the road (m), at least 10 dx.
+        width: width across the road (m), at least one dy.
+        dx: spacing along the road (m, default 1 cm); ``dy``: across (m, default ``dx``).
+        seed: the random seed; the same arguments give the same surface.
+        options: any of :data:`SETT_DEFAULTS` (m, ``size_spread`` a fraction, ``tilt_sd`` a slope).
+
+    Returns:
+        A NaN-free :class:`Surface` (heights m, mean zero) whose metadata names the settings and the
+        mean sett pitch along the road (m).
+    """
+    dx_f = positive(dx, "dx")
+    dy_f = dx_f if dy is None else positive(dy, "dy")
+    nx = int(round(positive(length, "length") / dx_f))
+    ny = max(1, int(round(positive(width, "width") / dy_f)))
+    if nx < 10:
+        raise InvalidInputError(f"length {length:g} m is fewer than 10 samples of dx {dx_f:g} m")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
+    unknown = set(options) - set(SETT_DEFAULTS)
+    if unknown:
+        raise InvalidInputError(f"unknown option(s) {sorted(unknown)} for sett_surface; known: {sorted(SETT_DEFAULTS)}")
+    p = {**SETT_DEFAULTS, **{k: finite_number(v, k) for k, v in options.items()}}
+    if any(v < 0 for v in p.values()):
+        raise InvalidInputError(f"sett_surface options must be >= 0, got {options!r}")
+    if (p["sett_length"] <= 0 or p["sett_width"] <= 0 or not 0 <= p["size_spread"] < 1
+            or p["joint_max"] < p["joint_min"] or p["joint_depth_max"] < p["joint_depth_min"]):
+        raise InvalidInputError("need sett_length, sett_width > 0, 0 <= size_spread < 1, joint_min <= joint_max "
+                                "and joint_depth_min <= joint_depth_max")
+    rng = np.random.default_rng([int(seed), 7, 11])
+    x = dx_f * np.arange(nx)
+    y = dy_f * np.arange(ny)
+    z = np.empty((ny, nx))
+
+    def sizes(mean: float, count: int) -> np.ndarray:
+        return mean * (1.0 + p["size_spread"] * rng.uniform(-1.0, 1.0, count))
+
+    def joints(count: int) -> tuple[np.ndarray, np.ndarray]:
+        return rng.uniform(p["joint_min"], p["joint_max"], count), rng.uniform(p["joint_depth_min"],
+                                                                               p["joint_depth_max"], count)
+
+    start = -p["sett_length"] * rng.random()   # the first course begins before x = 0
+    offset = p["sett_width"] * rng.random()
+    pitches = []
+    while start < x[-1] + dx_f:
+        course = float(sizes(p["sett_length"], 1)[0])
+        joint_width, joint_depth = (float(v[0]) for v in joints(1))
+        columns = (x >= start) & (x < start + course + joint_width)
+        u = x[columns] - start                                        # along the course, from its start
+        # stretcher bond: about half a sett across from the previous course's joints
+        offset = (offset + 0.5 * p["sett_width"] * (1.0 + 0.2 * rng.uniform(-1.0, 1.0))) % p["sett_width"]
+        count = int(np.ceil((y[-1] + dy_f + offset) / (p["sett_width"] + p["joint_min"]))) + 1
+        widths, (gaps, gap_depths) = sizes(p["sett_width"], count), joints(count)
+        lefts = -offset + np.concatenate([[0.0], np.cumsum(widths + gaps)[:-1]])
+        sett = np.clip(np.searchsorted(lefts, y, side="right") - 1, 0, count - 1)
+        v = y - lefts[sett]                                            # across the sett, from its right edge
+        in_gap = v >= widths[sett]
+        level = rng.normal(0.0, p["top_sd"], count)[sett][:, None]
+        tilt_u = rng.normal(0.0, p["tilt_sd"], count)[sett][:, None]
+        tilt_v = rng.normal(0.0, p["tilt_sd"], count)[sett][:, None]
+        su = np.clip(u / course, 0.0, 1.0)[None, :]                    # 0 to 1 over the sett
+        sv = np.clip(v / widths[sett], 0.0, 1.0)[:, None]
+        dome = p["crown"] * (1.0 - (2.0 * su - 1.0) ** 2) * (1.0 - (2.0 * sv - 1.0) ** 2)
+        edge = np.minimum(np.minimum(u, course - u)[None, :], np.minimum(v, widths[sett] - v)[:, None])
+        r = p["edge_radius"]
+        rounding = np.where(edge < r, r - np.sqrt(np.clip(r * r - (r - np.clip(edge, 0.0, r)) ** 2, 0.0, None)), 0.0)
+        top = (level + dome + tilt_u * (u[None, :] - 0.5 * course) + tilt_v * (v - 0.5 * widths[sett])[:, None]
+               - rounding)
+        in_joint = (u >= course)[None, :] | in_gap[:, None]
+        depth = np.where((u >= course)[None, :], -joint_depth, -gap_depths[sett][:, None])
+        z[:, columns] = np.where(in_joint, depth, top)
+        pitches.append(course + joint_width)
+        start += course + joint_width
+    z += rng.normal(0.0, p["roughness_sd"], z.shape)
+    z -= z.mean()
+    settings = ", ".join(f"{k}={v}" for k, v in options.items())
+    step = (f"sett_surface(length={nx * dx_f:g} m, width={ny * dy_f:g} m, dx={dx_f:g} m, dy={dy_f:g} m, "
+            f"seed={int(seed)}{', ' + settings if settings else ''})")
+    metadata: dict[str, object] = {"synthetic": True, "kind": "setts", "seed": int(seed), "device": "roadtex.surfaces",
+                                   "mean_pitch": float(np.mean(pitches)), **{k: float(v) for k, v in p.items()}}
+    return Surface(z, dx_f, dy_f, metadata, (step,))

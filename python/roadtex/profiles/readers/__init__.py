@@ -10,7 +10,7 @@ import numpy as np
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number, missing_positions
-from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.plausibility import stated_distance_unit, warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
@@ -90,6 +90,14 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
 
     Rows are sorted by position; exact duplicates that agree are merged.
 
+    Warns:
+        ImplausibleTextureWarning: heights or an interval that cannot be a road texture in metres
+            (heights in mm or um read as m; distances in mm read as m: above 5 mm), the latter only
+            where the distances' unit was assumed (a .npy's metres, a bare ``dx``).
+        CoarseSamplingWarning: an interval above 5 mm whose unit is certain (stated by the
+            header or the format, or given): read as it is; the metadata's
+            ``distance_unit_stated`` says where the unit comes from.
+
     Raises:
         ValueError: the file is missing, empty, binary or in an unknown encoding, truncated, has no
             usable distance or height column or an unknown unit, holds only drop-outs, or has
@@ -163,7 +171,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     history.append(f"read_profile({name!r}, format={fmt!r}{encoding_note}): {positions.size} samples, "
                    f"dx {format_number(dx_f)} m, {int(np.count_nonzero(np.isnan(heights)))} drop-outs{note}")
     profile = Profile(heights, positions, dx_f, metadata, tuple(history))
-    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True)
+    warn_if_implausible_texture(profile.heights, profile.dx, name, stacklevel=4, measured=True,
+                                stated=stated_distance_unit(profile.metadata))
     return profile
 
 

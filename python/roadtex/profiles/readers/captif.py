@@ -7,7 +7,8 @@ import re
 import numpy as np
 
 from roadtex.errors import ProfileFormatError
-from roadtex.profiles.readers.text import ReadResult, column_unit, first_lines, parse_table, parse_value
+from roadtex.profiles.plausibility import set_distance_unit
+from roadtex.profiles.readers.text import ReadResult, column_unit, first_lines, parse_table, parse_value, stated_unit
 
 #: The line that ends a CAPTIF file's metadata block.
 CAPTIF_MARKER = b"*****DATA*****"
@@ -68,4 +69,6 @@ def read_captif(data: bytes, name: str, options: dict) -> ReadResult:
                     normalised["time"] = rest.strip()
                 continue
         normalised[target] = parse_value(str(value)) if value != "" else None
+    # the format's distances are in mm (a header without its unit included): certain, never assumed
+    set_distance_unit(normalised, stated_unit(header, 1, options.get("distance_unit"), "mm (the CAPTIF format)"))
     return positions, heights, normalised, [], options.get("dx")

@@ -8,6 +8,7 @@ import re
 import numpy as np
 
 from roadtex.errors import ProfileFormatError
+from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
@@ -20,6 +21,7 @@ from roadtex.profiles.readers.text import (
     parse_table,
     parse_value,
     pick_column,
+    stated_unit,
 )
 from roadtex.profiles.units import UNITS
 
@@ -266,4 +268,5 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     else:
         positions = grid_positions(heights.size, options, name)
     metadata.setdefault("format", "csv")
+    set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
     return positions, heights, metadata, history, options.get("dx")

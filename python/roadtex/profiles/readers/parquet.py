@@ -9,9 +9,10 @@ import numpy as np
 import polars as pl
 
 from roadtex.errors import ProfileFormatError
+from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.delimited import ROADTEX_TAG
 from roadtex.profiles.readers.grid import grid_positions
-from roadtex.profiles.readers.text import DISTANCE_NAMES, HEIGHT_NAMES, ReadResult, column_unit, pick_column
+from roadtex.profiles.readers.text import DISTANCE_NAMES, HEIGHT_NAMES, ReadResult, column_unit, pick_column, stated_unit
 
 
 def read_parquet(path: Path, name: str, options: dict) -> ReadResult:
@@ -44,6 +45,7 @@ def read_parquet(path: Path, name: str, options: dict) -> ReadResult:
         return series.cast(pl.Float64).fill_null(float("nan")).to_numpy()
 
     heights = column(h_index) * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
+    set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
     if d_index is None:
         return grid_positions(heights.size, options, name), heights, metadata, history, options.get("dx")
     positions = column(d_index) * column_unit(names, d_index, options.get("distance_unit"), "distance", source=name)

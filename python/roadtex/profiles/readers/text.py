@@ -155,6 +155,20 @@ def column_unit(names: list[str], index: int, given: str | None, what: str, *, s
     return factor
 
 
+def stated_unit(names: list[str], index: int | None, given: str | None, default: str | None = None) -> str | None:
+    """Where the unit of column ``index`` comes from, when it is certain: the header's (which a
+    given unit never overrides), else the one ``given`` for the file, else a ``default`` the format
+    defines (a string naming it, e.g. "mm (the CAPTIF format)"); None without a column (a bare dx)."""
+    if index is None:
+        return None
+    stated = split_column_name(names[index])[1]
+    if stated is not None:
+        return f"{stated} (the file's header)"
+    if given is not None:
+        return f"{given} (given for the file)"
+    return default
+
+
 def nominal_dx(positions: np.ndarray) -> float:
     """The file's sampling interval (m) from its sorted positions (m): the mean step, gaps (rows
     missing) counted as the steps they span (:func:`~roadtex.profiles.conditioning.sampling_interval`)."""
