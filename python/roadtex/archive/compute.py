@@ -235,6 +235,8 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
+        # line runs are solved on the data's grid (the model grid of issue 34 is for surface runs here)
+        "refine_along": [1], "refine_across": [None], "model_dx": [conditioned.dx], "model_dy": [None],
     }, schema=RUN_RUN_SCHEMA)
 
 
