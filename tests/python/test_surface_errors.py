@@ -116,18 +116,20 @@ def test_pilot_tiles_are_spread_and_bounded() -> None:
     assert areal.pilot_tile_indices(10, per_window, top=2).tolist() == [0, 4, 9]   # a forced k = 1: (1, 2)
 
 
-def test_wide_tiles_are_piloted_on_a_strip_around_the_middle_row() -> None:
+def test_wide_tiles_are_piloted_on_a_strip_across_the_tiles_seam() -> None:
     rows = np.array([0, 100, 200, 299, 399])
     n_x = 1000
     window, inside = areal.pilot_window(400, n_x, rows)
-    assert (window.stop - window.start) * n_x <= areal.AREAL_WINDOW_POINTS
-    assert window.start <= 200 < window.stop and rows[inside].tolist() == [200]
+    assert window.size * n_x <= areal.AREAL_WINDOW_POINTS
+    # the last rows then the first, as the periodic tile joins them: the first and last analysed rows
+    assert window.tolist() == [396, 397, 398, 399, 0, 1, 2, 3] and rows[inside].tolist() == [0, 399]
     whole, all_rows = areal.pilot_window(12, 500, np.array([0, 10]))  # a narrow tile: all of it
-    assert (whole.start, whole.stop) == (0, 12) and all_rows.tolist() == [0, 1]
+    assert whole.tolist() == list(range(12)) and all_rows.tolist() == [0, 1]
     # the window shrinks so that the ladder's finest rung fits the pilot's points
-    assert (window.stop - window.start) * n_x * 64 <= areal.AREAL_PILOT_POINTS
+    assert window.size * n_x * 64 <= areal.AREAL_PILOT_POINTS
+    assert areal.pilot_window(400, n_x, rows, top=2)[0].size == areal.AREAL_WINDOW_POINTS // n_x
     thin, _ = areal.pilot_window(400, 10 ** 6, rows)                  # never fewer than MIN_WINDOW_ROWS
-    assert thin.stop - thin.start == areal.MIN_WINDOW_ROWS
+    assert thin.size == areal.MIN_WINDOW_ROWS
 
 
 @pytest.mark.parametrize("kind, seed", [("dense_asphalt", 7), ("cement_concrete", 8)])

@@ -355,7 +355,7 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
     n_tiles, n_y, n_x = tiles.heights.shape
     top = refine_ladder(options.refine)[-1]
     window, _ = pilot_window(n_y, n_x, rows, top)
-    chosen = pilot_tile_indices(n_tiles, (window.stop - window.start) * n_x, top)
+    chosen = pilot_tile_indices(n_tiles, window.size * n_x, top)
     if chosen.size == 0:
         return None
     # the line model on every analysed row (cheap); the areal model on the window, its levels taken
@@ -363,7 +363,7 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
     # samples of how a row's levels err than the one or two analysed rows a strip holds
     heights, line_heights, _ = tile_lines(tiles, chosen, lines, rows)
     heights = heights[:, window, :]
-    if window.stop - window.start < n_y:  # a strip of each tile, its own plane removed as tiles' are
+    if window.size < n_y:  # a strip of each tile, its own plane removed as tiles' are
         heights = heights - plane_fits(heights, tiles.dx, tiles.dy)
     every_row = np.arange(heights.shape[1])
     reported = bands.filter(pl.col("reported"))["band"].to_numpy()
@@ -376,7 +376,7 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
         band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
         pilot_tiles=tuple(int(t) for t in chosen),
-        window_factor=WINDOW_FACTOR if window.stop - window.start < n_y else 1.0,
+        window_factor=WINDOW_FACTOR if window.size < n_y else 1.0,
         refine=options.refine, interpolant=options.interpolant, tile_points=n_y * n_x)  # type: ignore[arg-type]
 
 
