@@ -259,12 +259,16 @@ def test_refine_1_hands_the_solvers_the_datas_own_tiles(tmp_path: Path, monkeypa
     monkeypatch.setattr(surface_run, "contact_surface_many", spy)
     for current in (1, 2):
         surface_job(tmp_path, f"k{current}", refine=current, error_budget_db=None)
+    current = 3   # the options' interpolant reaches the model grid
+    surface_job(tmp_path, "pchip", refine=2, interpolant="pchip", error_budget_db=None)
     (data, dx1, dy1), = seen[1]
     (fine, dx2, dy2), = seen[2]
     assert (dx1, dy1) == (DX, DX) and (dx2, dy2) == (DX / 2, DX / 2)
     assert data.shape == (2, 6, 64) and fine.shape == (2, 12, 128)
     np.testing.assert_array_equal(fine[:, ::2, ::2], data)
     np.testing.assert_array_equal(fine, refine_periodic_surface(data, 2, 2))
+    np.testing.assert_array_equal(seen[3][0][0], refine_periodic_surface(data, 2, 2, "pchip"))
+    assert not np.array_equal(seen[3][0][0], fine)
 
 
 def test_a_windows_estimate_covers_the_whole_tile_on_the_model_grid(tmp_path: Path,

@@ -254,7 +254,9 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
     method, kind = options.band_method, options.band_kind
     texture = run_stage("spectra", lambda: band_levels(flat, dx, kind=kind, periodic=True, method=method))
     # [tile, modulus, line, x]: the analysed data rows on the model grid (see roadtex.budget.areal)
-    areal_env = areal.envelope[:, :, rows * refine, :] - refine_periodic(frame_shift, refine)[:, None]
+    # the move into the line model's frame refined as the road is (the difference of the two roads)
+    shift = refine_periodic(frame_shift, refine, options.interpolant)  # type: ignore[arg-type]
+    areal_env = areal.envelope[:, :, rows * refine, :] - shift[:, None]
     areal_p = row_strips(areal.pressure, rows, refine)
     line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, fine_x)
     line_p = line_batch.pressure.reshape(n_tiles, len(rows), moduli.size, fine_x)

@@ -243,7 +243,7 @@ def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol:
                   refine: int, shift: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """The areal model on tiles ``heights`` (tiles, ny, nx) on a model grid ``refine`` times finer
     each way; levels (2, tiles x lines x moduli, bands) along the analysed data ``rows`` (see the
-    module), the envelope moved by ``shift`` (tiles, lines, nx at the data's dx, refined linearly)
+    module), the envelope moved by ``shift`` (tiles, lines, nx at the data's dx, refined as the road)
     as the job moves it."""
     fine = refine_periodic_surface(heights, refine, refine, setup.interpolant)
     solved = contact_surface_many(fine, dx / refine, dy / refine, youngs_modulus=setup.moduli,
@@ -254,7 +254,7 @@ def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol:
     # (tiles, moduli, lines, x) -> (tiles, lines, moduli, x)
     envelope = np.moveaxis(solved.envelope[:, :, rows * refine, :], 1, 2)
     pressure = np.moveaxis(row_strips(solved.pressure, rows, refine), 1, 2)
-    envelope = envelope - refine_periodic(shift, refine)[:, :, None, :]
+    envelope = envelope - refine_periodic(shift, refine, setup.interpolant)[:, :, None, :]
     levels, ok = contact_levels(envelope, pressure, dx / refine, bands, setup.kind, setup.method)
     return levels, ok, solver_work(solved.iterations, fine.shape[1] * fine.shape[2])
 
