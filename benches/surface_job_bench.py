@@ -49,6 +49,7 @@ def main() -> int:
                 segments = pl.read_parquet(folder / "out" / "segments.parquet")
                 models = segments["model"].value_counts().sort("model")
                 print(f"repeat {repeat + 1}, budget {label}: {seconds[label]:.1f} s end to end; tol {run['tol_used']:g}, "
+                      f"model grid k {run.get('refine')}, "
                       f"worst estimated error {run['worst_level_error_db']} dB, median iterations "
                       f"{segments['iterations'].median():g}; segment rows "
                       + ", ".join(f"{m}: {c}" for m, c in models.iter_rows()))

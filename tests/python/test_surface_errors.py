@@ -17,6 +17,7 @@ from roadtex.archive.surface_run import error_table, line_rows
 from roadtex.budget import areal
 from roadtex.errors import ErrorBudgetWarning
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import refine_periodic, refine_periodic_surface
 from roadtex.models.surface import contact_surface_many
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -40,22 +41,28 @@ def levels_of(envelope: np.ndarray, pressure: np.ndarray, dx: float, bands: np.n
 
 
 def line_levels(lines: np.ndarray, factor: int, tol: float, bands: np.ndarray) -> np.ndarray:
-    fine = np.repeat(lines, factor, axis=-1)
+    fine = refine_periodic(lines, factor)
     batch = contact_many(fine, DX / factor, MODULI, PRESSURE, tol=tol, warm_start=True)
     return levels_of(batch.envelope, batch.pressure, DX / factor, bands)
 
 
 def areal_levels(tile: np.ndarray, rows: np.ndarray, shift: np.ndarray, factor: int, tol: float,
                  bands: np.ndarray) -> np.ndarray:
-    """Levels along ``rows`` of the tile solved on a grid ``factor`` times finer each way: each
-    analysed row is the mean of its ``factor`` fine rows, moved by ``shift`` as the job does."""
-    fine = np.repeat(np.repeat(tile, factor, axis=0), factor, axis=1)
+    """Levels along ``rows`` of the tile solved on a grid ``factor`` times finer each way (joined
+    bilinearly): each analysed row's envelope is its fine row, its pressure the mean over the fine
+    rows within half a data row (the ends half-weighted for an even factor), moved by ``shift``
+    as the job does."""
+    fine = refine_periodic_surface(tile, factor, factor)
     solved = contact_surface_many(fine[None], DX / factor, DX / factor, youngs_modulus=MODULI,
                                   mean_pressure=PRESSURE, tol=tol, warm_start=True)
     ny, nx = fine.shape
-    envelope = np.stack([solved.envelope[0, :, r * factor:(r + 1) * factor].mean(axis=1) for r in rows])
-    pressure = np.stack([solved.pressure[0, :, r * factor:(r + 1) * factor].mean(axis=1) for r in rows])
-    envelope = envelope - np.repeat(shift, factor, axis=-1)[:, None, :]
+    half = factor // 2
+    weights = np.ones(2 * half + 1) if factor % 2 else np.r_[0.5, np.ones(2 * half - 1), 0.5]
+    weights = weights / weights.sum()
+    envelope = np.stack([solved.envelope[0, :, r * factor] for r in rows])
+    pressure = np.stack([sum(w * solved.pressure[0, :, (r * factor + o) % ny]
+                             for o, w in zip(range(-half, half + 1), weights)) for r in rows])
+    envelope = envelope - refine_periodic(shift, factor)[:, None, :]
     return levels_of(envelope, pressure, DX / factor, bands)
 
 
@@ -77,7 +84,7 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
         tile[None], lines[None], shift[None], rows, DX, DX, bands=bands, in_budget=np.ones(bands.size, bool),
         run_rows=rows.size * MODULI.size, youngs_moduli=MODULI, mean_pressure=PRESSURE, poisson=0.5, tols=(TOL,),
         budget_db=0.2,
-        band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None)
+        band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None, refine=1)
     # the job's levels (file grid, tol TOL) against the same surface solved 16 (line) and 8
     # (areal) times finer each way at tol 1e-10
     actual = {
@@ -85,7 +92,11 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
         "areal": gap(areal_levels(tile, rows, shift, 1, TOL, bands), areal_levels(tile, rows, shift, 8, 1e-10, bands)),
     }
     for model, error in actual.items():
-        worst = error.max(axis=(0, 1))
+        # a row without contact on the data's grid (pressure -inf dB) but touching on the fine one
+        # (its width's mean) errs without bound: left out, as the pilot leaves it out (documented)
+        bounded = np.isfinite(error).all(axis=-1)
+        assert bounded.mean() >= 0.75, model
+        worst = error[bounded].max(axis=0)
         assert np.all(np.isfinite(stated.level_error_db[model]))
         assert np.all(stated.level_error_db[model] >= worst - 0.02), (model, stated.level_error_db[model] - worst)
         # and not vacuous: the estimate is within a few times the actual error where it is sizeable
@@ -99,21 +110,26 @@ def test_stated_errors_cover_the_error_against_a_much_finer_solve(kind: str, see
 def test_pilot_tiles_are_spread_and_bounded() -> None:
     assert areal.pilot_tile_indices(10, 1000).tolist() == [0, 4, 9]   # 0, 4.5 rounded to even, 9
     assert areal.pilot_tile_indices(2, 1000).tolist() == [0, 1]
-    per_window = areal.AREAL_PILOT_POINTS // 8                        # two fit at half spacing
+    per_window = areal.AREAL_PILOT_POINTS // 128                      # two fit on the ladder's k = 8
     assert areal.pilot_tile_indices(10, per_window).tolist() == [0, 9]
-    assert areal.pilot_tile_indices(10, areal.AREAL_PILOT_POINTS).size == 0
+    assert areal.pilot_tile_indices(10, areal.AREAL_PILOT_POINTS // 64 + 1).size == 0
+    assert areal.pilot_tile_indices(10, per_window, top=2).tolist() == [0, 4, 9]   # a forced k = 1: (1, 2)
 
 
-def test_wide_tiles_are_piloted_on_a_strip_around_the_middle_row() -> None:
+def test_wide_tiles_are_piloted_on_a_strip_across_the_tiles_seam() -> None:
     rows = np.array([0, 100, 200, 299, 399])
     n_x = 1000
     window, inside = areal.pilot_window(400, n_x, rows)
-    assert (window.stop - window.start) * n_x <= areal.AREAL_WINDOW_POINTS
-    assert window.start <= 200 < window.stop and rows[inside].tolist() == [200]
-    whole, all_rows = areal.pilot_window(20, n_x, rows[:2] // 10)     # a narrow tile: all of it
-    assert (whole.start, whole.stop) == (0, 20) and all_rows.tolist() == [0, 1]
+    assert window.size * n_x <= areal.AREAL_WINDOW_POINTS
+    # the last rows then the first, as the periodic tile joins them: the first and last analysed rows
+    assert window.tolist() == [396, 397, 398, 399, 0, 1, 2, 3] and rows[inside].tolist() == [0, 399]
+    whole, all_rows = areal.pilot_window(12, 500, np.array([0, 10]))  # a narrow tile: all of it
+    assert whole.tolist() == list(range(12)) and all_rows.tolist() == [0, 1]
+    # the window shrinks so that the ladder's finest rung fits the pilot's points
+    assert window.size * n_x * 64 <= areal.AREAL_PILOT_POINTS
+    assert areal.pilot_window(400, n_x, rows, top=2)[0].size == areal.AREAL_WINDOW_POINTS // n_x
     thin, _ = areal.pilot_window(400, 10 ** 6, rows)                  # never fewer than MIN_WINDOW_ROWS
-    assert thin.stop - thin.start == areal.MIN_WINDOW_ROWS
+    assert thin.size == areal.MIN_WINDOW_ROWS
 
 
 @pytest.mark.parametrize("kind, seed", [("dense_asphalt", 7), ("cement_concrete", 8)])
@@ -126,7 +142,7 @@ def test_a_strips_estimate_covers_the_whole_tiles_error(tmp_path: Path, monkeypa
     np.save(path, surface.heights)
     manifest = pl.DataFrame({"path": [str(path)], "run_id": ["s"], "format": ["surface"], "dx": [DX], "dy": [DX]})
     monkeypatch.setattr(areal, "AREAL_WINDOW_POINTS", 16 * 128)
-    options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI), tol=TOL)
+    options = ProcessingOptions(segment_length=0.128, youngs_moduli=tuple(MODULI), tol=TOL, refine=1)
     assert process(manifest, tmp_path / "out", options, quiet=True).failed == 0
     stated = pl.read_parquet(tmp_path / "out" / "runs" / "s" / "level_errors.parquet")
     tile = surface.heights - plane_fits(surface.heights[None], DX, DX)[0]   # the job's tile: one, plane removed
@@ -158,7 +174,7 @@ def test_a_surface_too_large_for_the_pilot_is_warned_about_and_left_unestimated(
     assert pl.read_parquet(tmp_path / "out" / "bands.parquet")["level_error_db"].drop_nulls().len() == 0
 
 
-def pilot_at(tols: tuple[float, ...], budget_db: float) -> areal.SurfaceErrors:
+def pilot_at(tols: tuple[float, ...], budget_db: float, refine: int | None = 1) -> areal.SurfaceErrors:
     surface = synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5)
     tile = surface.heights - surface.heights.mean()
     rows = np.array([0, 5, 10, 15])
@@ -168,7 +184,7 @@ def pilot_at(tols: tuple[float, ...], budget_db: float) -> areal.SurfaceErrors:
         tile[None], lines[None], (tile[rows] - lines)[None], rows, DX, DX, bands=bands,
         in_budget=np.ones(bands.size, bool), run_rows=rows.size * MODULI.size, youngs_moduli=MODULI,
         mean_pressure=PRESSURE, poisson=0.5, tols=tols, budget_db=budget_db, band_kind="third_octave",
-        band_method="dft", max_iterations=2000, threads=None)
+        band_method="dft", max_iterations=2000, threads=None, refine=refine)
 
 
 def test_the_pilot_picks_the_loosest_tolerance_the_budget_allows() -> None:
@@ -205,7 +221,7 @@ def test_a_surface_runs_tolerance_is_chosen_by_its_pilot_unless_given(tmp_path: 
         chosen[name] = runs["tol_used"][0]
         assert (segments["residual"] <= chosen[name]).all()     # every solve met the tol the run states
     assert chosen["given"] == 1e-8
-    assert chosen["free"] == pilot_at((1e-4, 1e-6, 1e-8, 1e-10), 0.2).tol
+    assert chosen["free"] == pilot_at((1e-4, 1e-6, 1e-8, 1e-10), 0.2, refine=None).tol
 
 
 def test_a_loose_tolerance_is_estimated_too() -> None:
@@ -267,7 +283,7 @@ def test_a_windows_scaled_estimate_still_lets_the_loosest_tolerance_through() ->
         in_budget=np.ones(bands.size, bool), run_rows=rows.size * MODULI.size, youngs_moduli=MODULI,
         mean_pressure=PRESSURE, poisson=0.5, tols=(1e-4, 1e-6, 1e-8, 1e-10), budget_db=1e-3,
         band_kind="third_octave", band_method="dft", max_iterations=2000, threads=None,
-        window_factor=areal.WINDOW_FACTOR)
+        window_factor=areal.WINDOW_FACTOR, refine=1)
     unscaled = pilot_at((1e-4, 1e-6, 1e-8, 1e-10), budget_db=1e-3)
     assert chosen.tol == unscaled.tol > 1e-10
     np.testing.assert_allclose(chosen.level_error_db["areal"], areal.WINDOW_FACTOR * unscaled.level_error_db["areal"])

@@ -13,12 +13,12 @@ from roadtex.surfaces import synthetic_surface
 OPTIONS = ProcessingOptions(segment_length=0.2, youngs_moduli=(2e6, 5e6), tol=1e-8)
 
 
-def run_job(tmp_path, heights, dx=1e-3, dy=1e-3, name="s"):
+def run_job(tmp_path, heights, dx=1e-3, dy=1e-3, name="s", options=OPTIONS):
     path = tmp_path / f"{name}.npy"
     np.save(path, heights)
     manifest = pl.DataFrame({"path": [str(path)], "format": ["surface"], "dx": [dx], "dy": [dy],
                              "pavement": ["test"]})
-    summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True)
+    summary = process(manifest, tmp_path / "out", options, quiet=True)
     return summary, {name: pl.read_parquet(tmp_path / "out" / f"{name}.parquet")
                      for name in ("segments", "bands", "runs", "errors")}
 
@@ -101,7 +101,9 @@ def test_manifest_rejects_nonpositive_dy(tmp_path):
 
 def test_surface_example_is_the_middle_tile(tmp_path):
     surface = synthetic_surface("dense_asphalt", 0.6, 0.03, 1e-3, seed=4)
-    run_job(tmp_path, surface.heights)
+    # on the data's grid (a finer model grid's example holds its values at the data's readings,
+    # whose mean pressure is not P)
+    run_job(tmp_path, surface.heights, options=ProcessingOptions(**{**OPTIONS.__dict__, "refine": 1}))
     example = pl.read_parquet(tmp_path / "out" / "surface_examples.parquet")
     assert example["segment"].unique().to_list() == [1]
     assert example["youngs_modulus"].unique().to_list() == [5e6]     # middle of (2e6, 5e6) by index 1

@@ -308,6 +308,7 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
+        "refine_across": [None], "model_dy": [None],   # a line run's model grid is along the road only
     }, schema=RUN_RUN_SCHEMA)
 
 

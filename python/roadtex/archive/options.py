@@ -66,6 +66,8 @@ class ProcessingOptions:
             than the data's (every ``dx / k``), the readings joined by ``interpolant``
             (:mod:`roadtex.models.grid`); texture levels stay those of the data. None (the
             default): chosen by the error budget (1 without one). 1: the data's own grid.
+        refine_from_budget: set by the job's plan when ``refine`` was chosen by the error budget
+            rather than given: surface runs then choose their own from their areal pilot.
         group_model_dx: set by the job's plan: (group, file spacing in m to two significant
             digits, model grid interval in m) of each error-budget pilot group; a line run of such
             a group is solved on its own group's model grid (``ceil(dx / model_dx)`` times finer
@@ -103,6 +105,7 @@ class ProcessingOptions:
     tol: float | None = None
     tol_from_budget: bool = False
     refine: int | None = None
+    refine_from_budget: bool = False
     interpolant: str = "linear"
     group_model_dx: tuple[tuple[str, float, float], ...] = ()
     max_iterations: int = 2000

@@ -132,7 +132,8 @@ class JobPlan:
         return dataclasses.replace(options, dx=self.dx, tol=self.tol, refine=self.refine,
                                    group_model_dx=tuple((g.key, g.spacing, g.model_dx) for g in self.group_errors.values()
                                                         if g.model_dx is not None),
-                                   tol_from_budget=options.tol is None and options.error_budget_db is not None)
+                                   tol_from_budget=options.tol is None and options.error_budget_db is not None,
+                                   refine_from_budget=options.refine is None and options.error_budget_db is not None)
 
     def summary(self) -> dict[str, Any]:
         """The plan as JSON-ready values (parameters.json)."""

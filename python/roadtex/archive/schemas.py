@@ -100,8 +100,11 @@ RUN_COLUMNS: Columns = {
     "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
                                                   # a surface run's own dx along the road)
     "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's; a surface run's own pilot's choice)
-    "refine": (pl.Int64(), "1"),                  # k: the contact model's grid is k times finer than dx_used
-    "model_dx": (pl.Float64(), "m"),              # the contact model's element width, dx_used / refine
+    "refine": (pl.Int64(), "1"),                  # k: the contact model's grid is k times finer than dx_used (along
+                                                  # the road), the readings joined (roadtex.models.grid)
+    "refine_across": (pl.Int64(), "1"),           # ... and across it (surface runs; null: line runs)
+    "model_dx": (pl.Float64(), "m"),              # the model grid's spacing along the road, dx_used / refine
+    "model_dy": (pl.Float64(), "m"),              # ... and across it (surface runs; null: line runs)
     "points": (pl.Int64(), "count"),              # after conditioning
     "raw_length": (pl.Float64(), "m"),            # as read
     "trimmed_length": (pl.Float64(), "m"),        # cut away as reference plates (and beyond them)
@@ -159,6 +162,8 @@ SURFACE_ERROR_COLUMNS: Columns = {                # per surface run (runs/<id>/l
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of the model's levels
     "speedup": (pl.Float64(), "1"),               # solver work at tol 1e-10 / at the job's tol (both models)
     "pilot_tiles": (pl.Int64(), "count"),         # tiles the areal pilot solved
+    "refine_along": (pl.Int64(), "count"),        # the model grid's k along the road the estimate is for
+    "refine_across": (pl.Int64(), "count"),       # ... and across it
 }
 PROFILE_COLUMNS: Columns = {
     "run_id": (pl.String(), None),

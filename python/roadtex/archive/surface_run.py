@@ -12,11 +12,18 @@ How a surface run is cut and solved (documented choices):
   same road.
 - Areal band levels are taken along those rows of each tile's enveloped surface (and of its
   pressure map): ``bands.parquet`` holds one row per (model, segment, line, modulus, band).
-- The surface is solved at its own spacings ``dx``, ``dy``. With an error budget, an areal pilot
-  on a few of its tiles (:mod:`roadtex.budget.areal`; the job's pilot is of line runs) chooses its
+- The surface is solved on a *model grid* ``k`` times finer than its own spacings ``dx``, ``dy``
+  each way (the readings joined by ``options.interpolant``, bilinear by default:
+  :func:`roadtex.models.grid.refine_periodic_surface`; the line model's rows ``k`` times finer
+  along). With an error budget, an areal pilot on a few of its tiles (:mod:`roadtex.budget.areal`;
+  the job's pilot is of line runs) chooses ``k`` (unless ``options.refine`` forces it) and its
   tolerance (unless the job's was given) and estimates its levels' errors: ``level_errors`` per
   (model, band), which the job joins into bands.parquet ``level_error_db`` and runs.parquet.
-  Without one, the job's tolerance.
+  Without one, ``options.refine`` (1 when None: the data's grid) and the job's tolerance.
+- Texture levels are the data's (its own grid). Enveloped and pressure levels come from the model
+  grid, in the data's bands (the fine grid's shorter bands are not reported); an analysed row's
+  pressure is the mean over the row's width ``dy`` (:func:`roadtex.budget.areal.row_strips`).
+  runs.parquet states the grid: ``refine``, ``refine_across``, ``model_dx``, ``model_dy``.
 """
 
 from __future__ import annotations
@@ -44,12 +51,15 @@ from roadtex.budget.areal import (
     SurfaceErrors,
     pilot_tile_indices,
     pilot_window,
+    refine_ladder,
+    row_strips,
     surface_level_errors,
 )
 from roadtex.budget.noise import in_budget
 from roadtex.budget.study import DEFAULT_TOLERANCES
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import coarse_points, refine_periodic, refine_periodic_surface
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
 from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
@@ -181,21 +191,22 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         if errors is None and pilot_note is None:
             n_y, n_x = tiles.heights.shape[1:]
             pilot_note = (f"tiles of {n_y} x {n_x} points: even one window of the areal pilot exceeds its "
-                          f"{AREAL_PILOT_POINTS} points at half spacing")
+                          f"{AREAL_PILOT_POINTS} points on its finest model grid")
         if pilot_note is not None:
             warnings.warn(f"{name} (run {run['run_id']!r}): {pilot_note}; its levels have no error estimate "
                           "(level_error_db null; parameters.json surface_pilot_notes)", ErrorBudgetWarning, stacklevel=2)
     tol = options.tol if errors is None else errors.tol   # the pilot's choice (the given tol when forced)
+    refine = (surface_refine(options) or 1) if errors is None else errors.refine   # the model grid's k, each way
     # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
     # envelopes and pressures, for every modulus, are what grows with the run's length).
-    chunk = max(1, CHUNK_POINTS // (n_y * n_x))
+    chunk = max(1, CHUNK_POINTS // (n_y * n_x * refine ** 2))
     # rows by model, then tile: the same order whatever the chunking
     by_model: dict[str, dict[str, list[pl.DataFrame]]] = {"bands": {}, "segments": {}}
     example = None
     for first in range(0, n_tiles, chunk):
         part = np.arange(first, min(first + chunk, n_tiles))
         frames = solve_chunk(run, options, tol, tiles, part, lines, rows, moduli, bands, frequency, line_mpd,
-                             starts, threads)
+                             starts, threads, refine)
         for table in ("bands", "segments"):
             for frame in frames[table]:
                 by_model[table].setdefault(frame["model"][0], []).append(frame)
@@ -213,7 +224,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         "bands": pl.concat(band_frames).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol),
+        "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol, refine),
         **notes,
     }
 
@@ -221,36 +232,49 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
 def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, tiles: Any, part: np.ndarray,
                 lines: list[Any],
                 rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame, frequency: np.ndarray,
-                line_mpd: np.ndarray, starts: np.ndarray, threads: int | None) -> dict[str, Any]:
-    """The tiles ``part`` of a surface run solved with both models at ``tol``: their band and
-    segment rows (tile numbers as in the whole run), and the report's example when the middle tile
-    is among them."""
+                line_mpd: np.ndarray, starts: np.ndarray, threads: int | None, refine: int = 1) -> dict[str, Any]:
+    """The tiles ``part`` of a surface run solved with both models at ``tol`` on the model grid
+    ``refine`` times finer each way: their band and segment rows (tile numbers as in the whole
+    run), and the report's example when the middle tile is among them."""
     dx, dy = tiles.dx, tiles.dy
     n_x = tiles.heights.shape[2]
     band_frames: list[pl.DataFrame] = []
     segment_frames: list[pl.DataFrame] = []
     heights, line_heights, frame_shift = tile_lines(tiles, part, lines, rows)
     n_tiles = part.size
+    # the model grid (k = 1: the data's own arrays, unchanged)
+    fine_heights = refine_periodic_surface(heights, refine, refine, options.interpolant)  # type: ignore[arg-type]
+    fine_lines = refine_periodic(line_heights, refine, options.interpolant)  # type: ignore[arg-type]
+    fine_x = n_x * refine
     areal = run_stage("solve", lambda: contact_surface_many(
-        heights, dx, dy, youngs_modulus=moduli, mean_pressure=options.mean_pressure, poisson=options.poisson,
-        tol=tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
+        fine_heights, dx / refine, dy / refine, youngs_modulus=moduli, mean_pressure=options.mean_pressure,
+        poisson=options.poisson, tol=tol, max_iterations=options.max_iterations, threads=threads, warm_start=True,
         raise_on_nonconvergence=False))
     flat = line_heights.reshape(-1, n_x)
     line_batch = run_stage("solve", lambda: contact_many(
-        flat, dx, moduli, options.mean_pressure, poisson=options.poisson, tol=tol,
+        fine_lines.reshape(-1, fine_x), dx / refine, moduli, options.mean_pressure, poisson=options.poisson, tol=tol,
         max_iterations=options.max_iterations, threads=threads, warm_start=True, raise_on_nonconvergence=False))
 
     method, kind = options.band_method, options.band_kind
     texture = run_stage("spectra", lambda: band_levels(flat, dx, kind=kind, periodic=True, method=method))
-    areal_env = areal.envelope[:, :, rows, :] - frame_shift[:, None]   # [tile, modulus, line, x]
-    areal_p = areal.pressure[:, :, rows, :]
-    line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, n_x)
-    line_p = line_batch.pressure.reshape(n_tiles, len(rows), moduli.size, n_x)
+    # [tile, modulus, line, x]: the analysed data rows on the model grid (see roadtex.budget.areal)
+    # the move into the line model's frame refined as the road is (the difference of the two roads)
+    shift = refine_periodic(frame_shift, refine, options.interpolant)  # type: ignore[arg-type]
+    areal_env = areal.envelope[:, :, rows * refine, :] - shift[:, None]
+    areal_p = row_strips(areal.pressure, rows, refine)
+    line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, fine_x)
+    line_p = line_batch.pressure.reshape(n_tiles, len(rows), moduli.size, fine_x)
+    wanted = bands["band"].to_numpy()
 
     def levels(values: np.ndarray, reference: float | None = None) -> np.ndarray:
         extra = {} if reference is None else {"reference": reference}
-        return run_stage("spectra", lambda: band_levels(values.reshape(-1, n_x), dx, kind=kind, periodic=True,
-                                                        method=method, **extra).levels)
+        table = run_stage("spectra", lambda: band_levels(values.reshape(-1, fine_x), dx / refine, kind=kind,
+                                                         periodic=True, method=method, **extra))
+        if refine == 1:
+            return table.levels
+        # the data's bands only: the model grid's shorter ones are not the data's to report
+        numbers = table.bands["band"].to_numpy()
+        return table.levels[:, [int(np.flatnonzero(numbers == b)[0]) for b in wanted]]
 
     texture_levels = texture.levels.reshape(n_tiles, len(rows), 1, -1)
     n_bands = bands.height
@@ -282,13 +306,14 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
 
     line_mpd = line_mpd[part]
     segment_frames = []
-    line_measures = contact_measures(line_heights[:, :, None, :], line_p, line_env)
+    line_measures = contact_measures(fine_lines[:, :, None, :], line_p, line_env)
     # the mean of the tile's lines' MPD; NaN (null) for a tile without any valid baseline (counted
     # by hand: numpy's nanmean warns, and a warnings filter would be process-wide)
     valid = np.isfinite(line_mpd)
     with np.errstate(invalid="ignore", divide="ignore"):
         areal_mpd = np.where(valid, line_mpd, 0.0).sum(axis=1) / valid.sum(axis=1)
-    areal_measures = contact_measures(heights.reshape(n_tiles, 1, -1), areal.pressure.reshape(n_tiles, moduli.size, -1),
+    areal_measures = contact_measures(fine_heights.reshape(n_tiles, 1, -1),
+                                      areal.pressure.reshape(n_tiles, moduli.size, -1),
                                       areal.envelope.reshape(n_tiles, moduli.size, -1))
     line_iter = line_batch.iterations.reshape(n_tiles, len(rows), moduli.size)
     line_res = line_batch.residual.reshape(n_tiles, len(rows), moduli.size)
@@ -308,7 +333,8 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
                                         areal.residual[tile_i, mod_i], areal.iterations[tile_i, mod_i],
                                         areal.converged[tile_i, mod_i]))
     middle = len(tiles) // 2
-    example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli)
+    example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli,
+                               refine)
                if middle in part else None)
     return {"bands": band_frames, "segments": segment_frames, "example": example}
 
@@ -328,13 +354,20 @@ def tile_lines(tiles: Any, part: np.ndarray, lines: list[Any],
     return heights, line_heights, heights[:, rows, :] - line_heights
 
 
+def surface_refine(options: ProcessingOptions) -> int | None:
+    """The k a surface run is forced to: the caller's ``refine``, not the one the line runs' plan
+    chose (``refine_from_budget``: surface runs choose their own from their areal pilot)."""
+    return None if options.refine_from_budget else options.refine
+
+
 def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame,
                  options: ProcessingOptions, threads: int | None) -> SurfaceErrors | None:
     """The areal pilot's choice of tolerance and error estimates of the run's levels
     (:mod:`roadtex.budget.areal`), or None when one window is too large for it."""
     n_tiles, n_y, n_x = tiles.heights.shape
-    window, _ = pilot_window(n_y, n_x, rows)
-    chosen = pilot_tile_indices(n_tiles, (window.stop - window.start) * n_x)
+    top = refine_ladder(surface_refine(options))[-1]
+    window, _ = pilot_window(n_y, n_x, rows, top)
+    chosen = pilot_tile_indices(n_tiles, window.size * n_x, top)
     if chosen.size == 0:
         return None
     # the line model on every analysed row (cheap); the areal model on the window, its levels taken
@@ -342,7 +375,7 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
     # samples of how a row's levels err than the one or two analysed rows a strip holds
     heights, line_heights, _ = tile_lines(tiles, chosen, lines, rows)
     heights = heights[:, window, :]
-    if window.stop - window.start < n_y:  # a strip of each tile, its own plane removed as tiles' are
+    if window.size < n_y:  # a strip of each tile, its own plane removed as tiles' are
         heights = heights - plane_fits(heights, tiles.dx, tiles.dy)
     every_row = np.arange(heights.shape[1])
     reported = bands.filter(pl.col("reported"))["band"].to_numpy()
@@ -355,7 +388,8 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
         band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
         pilot_tiles=tuple(int(t) for t in chosen),
-        window_factor=WINDOW_FACTOR if window.stop - window.start < n_y else 1.0)
+        window_factor=WINDOW_FACTOR if window.size < n_y else 1.0,
+        refine=surface_refine(options), interpolant=options.interpolant, tile_points=n_y * n_x)  # type: ignore[arg-type]
 
 
 def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
@@ -368,6 +402,8 @@ def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
         "level_error_db": np.concatenate([errors.level_error_db[m] for m in models]),
         "speedup": np.full(count * len(models), errors.work_speedup),
         "pilot_tiles": [len(errors.pilot_tiles)] * (count * len(models)),
+        "refine_along": [errors.refine] * (count * len(models)),
+        "refine_across": [errors.refine] * (count * len(models)),
     }, schema=SURFACE_ERROR_SCHEMA)
 
 
@@ -388,12 +424,13 @@ def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.nd
 
 
 def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, cleaning: CleaningSummary, depths: list[Any],
-                      n_tiles: int, tol: float) -> pl.DataFrame:
-    """The run's row of runs.parquet; MPD is the mean over the analysed lines (valid when all are)."""
+                      n_tiles: int, tol: float, refine: int = 1) -> pl.DataFrame:
+    """The run's row of runs.parquet; MPD is the mean over the analysed lines (valid when all are);
+    the model grid ``refine`` times finer than the data's each way."""
     values = [d.mpd for d in depths if np.isfinite(d.mpd)]
     return pl.DataFrame({
         "run_id": [run["run_id"]], "path": [run["path"]], "format": [run.get("format")],
-        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol], "refine": [1], "model_dx": [surface.dx],
+        "file_dx": [raw.dx], "dx_used": [surface.dx], "tol_used": [tol],
         "points": [surface.heights.size],
         "raw_length": [raw.length], "trimmed_length": [0.0], "length": [surface.length], "plates": ["none"],
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
@@ -403,13 +440,16 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
         "mpd_valid": [bool(all(d.is_valid for d in depths))],
         "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],
         "mpd_baselines": [int(sum(int(d.segments.height) for d in depths))],
+        "refine": [refine], "refine_across": [refine], "model_dx": [surface.dx / refine],
+        "model_dy": [surface.dy / refine],
     }, schema=RUN_RUN_SCHEMA)
 
 
-def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, moduli: np.ndarray) -> pl.DataFrame:
+def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, moduli: np.ndarray,
+                    refine: int = 1) -> pl.DataFrame:
     """Tile ``tile``'s heights, enveloped surface and pressure map (row ``row`` of ``areal``) at
     the middle modulus (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws
-    without re-solving."""
+    without re-solving. On a model grid ``refine`` times finer, its values at the data's readings."""
     k = int(np.argsort(moduli)[moduli.size // 2])
     _, n_y, n_x = tiles.heights.shape
     x = tiles.x0 + tiles.dx * (tiles.column_starts[tile] + np.arange(n_x))
@@ -419,5 +459,6 @@ def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, mo
         "run_id": [run_id] * count, "segment": np.full(count, tile), "youngs_modulus": np.full(count, moduli[k]),
         "dx": np.full(count, tiles.dx), "dy": np.full(count, tiles.dy),
         "x": np.tile(x, n_y), "y": np.repeat(y, n_x), "height": tiles.heights[tile].ravel(),
-        "envelope": areal.envelope[row, k].ravel(), "pressure": areal.pressure[row, k].ravel(),
+        "envelope": coarse_points(coarse_points(areal.envelope[row, k], refine).T, refine).T.ravel(),
+        "pressure": coarse_points(coarse_points(areal.pressure[row, k], refine).T, refine).T.ravel(),
     }, schema=SURFACE_EXAMPLE_SCHEMA)

@@ -1,38 +1,53 @@
 """The numerical error of a surface run's levels: an areal pilot on a few of its tiles.
 
-A surface run (3D texture) is solved at its own spacings, with the areal model on tiles and with
-the line model on rows of the same tiles (see :mod:`roadtex.archive.surface_run`). Its levels get
-error estimates the way a line run's do (:mod:`roadtex.budget.study`), and its solver tolerance
-is chosen as loose as the budget allows, from a few *pilot* tiles spread evenly along the run:
+A surface run (3D texture) is solved on a *model grid* ``k`` times finer than the data's along and
+across the road (the readings joined bilinearly by default, :func:`roadtex.models.grid.refine_periodic_surface`),
+with the areal model on tiles and with the line model (refined ``k`` times along) on rows of the
+same tiles (see :mod:`roadtex.archive.surface_run`). Its levels get error estimates the way a line
+run's do (:mod:`roadtex.budget.study`), and its ``k`` and solver tolerance are chosen as cheap as the
+budget allows, from a few *pilot* tiles spread evenly along the run:
 
-1. **Reference**: each pilot tile (and its analysed rows, for the line model) solved at the
-   reference tolerance (1e-10) at the file's spacings.
-2. **Reference's own error** (Richardson): the same tiles solved at half the spacing
-   each way, every height repeated over a 2 x 2 block (a row's samples repeated twice for the
-   line model): the same surface as the file gives, on a grid twice as fine. The areal levels
-   are taken along the mean of the two fine rows of each analysed row. The reference's own error
-   is :data:`RICHARDSON_FACTOR` (3) |L(h / 2) - L(h)|: surface levels converge more slowly than
-   first order (2, the line runs' factor).
-3. **Tolerance**: the tiles solved at each candidate tolerance, loosest first (1e-4, 1e-6, 1e-8,
-   1e-10; only the given one when the job's tol was given); the difference from the reference.
-   The first candidate within the budget is the run's (:func:`surface_level_errors`).
-4. **Estimate** per (model, band): as for line runs, the differences of the pilot rows extended
-   to every row of the run (:func:`roadtex.budget.study.extreme`), the tolerance's times
-   ``SPREAD_FACTOR``, plus the reference's own error; the larger of the enveloped and pressure
-   estimates. Texture levels are the file's own (no resampling): no numerical error.
+1. **The k ladder**: each pilot tile (and its analysed rows, for the line model) solved at the
+   reference tolerance (1e-10) on model grids :data:`REFINE_LADDER` (1, 2, 4, 8) times finer each
+   way (only ``k`` and ``2 k`` when ``refine`` forces ``k``). Refining along the road alone is not
+   enough on 1 mm surfaces: (8, 1) still errs by 4 to 5 dB where (8, 8) errs by 0.3 dB
+   (``benches/surface_model_grid.py``; README "Model grid").
+2. **Richardson over the ladder**: the converged answer is taken as the finest rung ``L(top)``,
+   whose own error is a factor times |L(top) - L(top / 2)|: 1 / (r - 1) for the shrink r of the
+   last two steps (the median over levels and bands, :func:`tail_factor`), between
+   :data:`TAIL_FACTOR_MIN` (1: at least first order; the levels measured on 1 mm surfaces shrink
+   2.7 to 3.3 times per halving) and :data:`TAIL_FACTOR` (2, and for a forced k, whose two rungs
+   show no rate); a rung's error is |L(k) - L(top)| plus that. The cheapest rung within the
+   budget in every budget band is the run's ``k`` (when none is, the cheapest within 5 % (and
+   0.01 dB) of the best, as the line runs' pilot does); a forced ``k`` is estimated the same way
+   against ``2 k``. A rung whose model grid of a whole tile would exceed :data:`MAX_MODEL_POINTS`
+   is not chosen (it still serves as the reference).
+3. **Tolerance**: the tiles solved at the chosen ``k`` at each candidate tolerance, loosest first
+   (1e-4, 1e-6, 1e-8, 1e-10; only the given one when the job's tol was given); the difference from
+   the reference at that ``k``. The first candidate within the budget is the run's.
+4. **Estimate** per (model, band): the differences of the pilot rows extended to every row of the
+   run (:func:`roadtex.budget.study.extreme`), the tolerance's times ``SPREAD_FACTOR``, plus the
+   grid's; the larger of the enveloped and pressure estimates. Texture levels are the data's own
+   (no resampling): no numerical error.
+
+On the model grid an analysed data row is a fine row (the data row refined along the road); its
+enveloped profile is that fine row, its pressure the mean over the data row's width (``dy``, the
+fine rows within ``dy / 2`` of it, trapezoid-weighted): at ``k = 1`` both are the row itself, and
+the pressure along a single fine row (a line through a 2-D pressure map) does not converge (5 to
+7 dB off at (4, 4) against (16, 16), where the width's mean is 0.2 to 1.5 dB off).
 
 A row of a tile in contact with the rubber at one setting and not at the other (it barely touches:
 its pressure level is -inf at one) differs without bound; such rows are left out of the samples,
 and no estimate covers them (their pressure levels mean little at any setting).
 
 The pilot is bounded. On a wide tile it solves a *window*: a strip of the tile along its whole
-length (the same bands) and as many rows as make :data:`AREAL_WINDOW_POINTS` points, centred on the analysed row
-nearest the middle, its own plane removed, solved as a periodic cell as tiles are; the areal
-estimate comes from every row of it (the line model's, cheap, from every analysed row). The
-discretisation error of a row's levels depends on how finely the grid resolves the contact spots
-along it, which the strip's rows show as the tile's do, up to :data:`WINDOW_FACTOR` (tested
-against the whole tile).
-At most :data:`AREAL_PILOT_POINTS` points at half spacing over all pilot tiles (fewer tiles when
+length (the same bands) and as many rows as make :data:`AREAL_WINDOW_POINTS` points (fewer when its
+finest rung would exceed :data:`AREAL_PILOT_POINTS`), across the tile's seam (:func:`pilot_window`),
+its own plane removed, solved as a periodic cell as tiles are; the areal estimate comes from every
+row of it (the line model's, cheap, from every analysed row). The discretisation error of a row's
+levels depends on how finely the grid resolves the contact spots along it, which the strip's rows
+show as the tile's do, up to :data:`WINDOW_FACTOR` (tested against the whole tile).
+At most :data:`AREAL_PILOT_POINTS` points on the finest rung over all pilot tiles (fewer tiles when
 windows are large); a run whose window is too large for even one is not estimated (None).
 """
 
@@ -45,6 +60,7 @@ import numpy as np
 
 from roadtex.budget.study import REFERENCE_TOL, SPREAD_FACTOR, contact_levels, difference, extreme, solver_work
 from roadtex.models.contact import contact_many
+from roadtex.models.grid import Interpolant, check_interpolant, check_refine, refine_periodic, refine_periodic_surface
 from roadtex.models.surface import contact_surface_many
 from roadtex.spectra.bands import BandKind
 from roadtex.spectra.levels import Method
@@ -65,43 +81,64 @@ MIN_WINDOW_ROWS = 8
 #: periodic cell, whose rows err a little differently from the tile's. On 24 surfaces (3 pavements x
 #: 8 seeds, 0.128 m x 64 mm tiles at 1 mm, 16-row windows) the window's estimate fell below the whole
 #: tile's error by up to 0.51 dB (stated / actual 0.87) in one band of one surface; 1.5 covers that
-#: with room (``benches/areal_budget.py``).
+#: with room (``benches/areal_budget.py``; measured on the data's grid, windows around the middle
+#: row). On the model grid, with windows across the seam (:func:`pilot_window`), 3 such tiles (dense
+#: asphalt seed 7, cement concrete 8, porous asphalt 9; k = 8) gave areal stated / actual 1.27 to 26 against
+#: the whole tile solved 16 times finer each way.
 WINDOW_FACTOR = 1.5
 
-#: Largest number of points at half spacing over all pilot windows (4 per point of a window): the
-#: pilot's cost, about that many points solved per modulus at tol 1e-10. 2^19: four windows of
-#: 2^15 points would fit, of which :data:`AREAL_PILOT_TILES` are used.
+#: Largest number of points on the pilot's finest rung over all pilot windows (``top**2`` per point
+#: of a window, ``top`` the ladder's finest k): the pilot's cost, about that many points solved per
+#: modulus at tol 1e-10 (the coarser rungs add a third). 2^19: a 1 mm tile 0.5 m long is piloted on
+#: a 16-row window at k = 8 (the demo's 1 mm surfaces: 72 s for the three under load, against 137 s
+#: with 2^20 and 32 rows; stated worst errors 0.57 to 0.93 dB against 0.59 to 0.95, both with a
+#: window around the middle row).
 AREAL_PILOT_POINTS = 2 ** 19
+
+#: The model grid refinements (k along = k across) the pilot tries, cheapest first: the run's k is
+#: one of them (the finest is the converged answer's stand-in, see the module).
+REFINE_LADDER = (1, 2, 4, 8)
+
+#: Largest model grid of one tile the pilot may choose (points, ``ny nx k^2``): the job solves a
+#: tile whole, so a fine grid on a large tile would need gigabytes (a 0.5 m x 0.2 m tile at 0.5 mm,
+#: 400,000 points, is 25.6 million at k = 8). Rungs beyond it are still solved by the pilot (on its
+#: bounded windows) to estimate the chosen one's error. 4 million: the job's chunk of points.
+MAX_MODEL_POINTS = 4_000_000
 
 MODELS = ("line", "areal")
 
-#: Richardson factor of the reference's own error: error(h) ~ factor x |L(h / 2) - L(h)| (2 would
-#: be first order, as for line runs). An empirical choice: the levels of surface runs converge more
-#: slowly (rows of an areal pressure map cross contact spots that every halving resolves better).
-#: On 48 cases (3 synthetic pavements x 8 seeds x 2 widths, 1 mm, 0.128 m tiles, E = 2 and 10 MPa,
-#: tol 1e-6) the areal pressure levels of some bands fell only 1.3 times per halving (order 0.4,
-#: whose own factor would be 4.1); against solves 8 (areal) and 16 (line) times finer, factor 2 fell
-#: short by up to 0.2 dB (areal) and 0.06 dB (line), factor 3 covered every band of both models by
-#: at least 1.3 times (median 3 times): pooling over neighbouring bands and the larger of the
-#: enveloped and pressure estimates add the rest (``benches/areal_budget.py`` reruns the check).
-#: One factor for both models: on a surface that is a profile extruded across the road, where both
-#: models give the same levels, they get the same estimate.
-RICHARDSON_FACTOR = 3.0
+#: Richardson factor of the finest rung's own error, at most: error(top) ~ factor x |L(top) -
+#: L(top / 2)|. 2 is the areal pilot's factor before the model grid (its error(h) = 3 |L(h / 2) -
+#: L(h)|, 48 cases), and a forced k (two rungs: no convergence rate to read) gets it: at k = 1 on
+#: 1 mm surfaces the levels are not yet converging steadily (a dense asphalt tile's band erred
+#: 5.9 dB against (8, 8) where |L(1) - L(2)| was 2.6 dB: factor 1 fell 0.8 dB short).
+TAIL_FACTOR = 2.0
+
+#: The least tail factor, on a ladder whose last two steps shrank at least 2 times per halving (at
+#: least first order: 1 / (2 - 1)). Per model the factor is 1 / (r - 1) for the measured shrink r,
+#: the median over levels and bands of |L(top / 2) - L(top / 4)| / |L(top) - L(top / 2)| (each
+#: extended to the run's rows), kept within [TAIL_FACTOR_MIN, TAIL_FACTOR]. Measured on 6 cases (3 synthetic pavements x 2
+#: seeds, 1 mm, 0.128 m x 8 mm tiles, E = 1 to 10 MPa, tol 1e-10), the worst error over the budget
+#: bands against (32, 32) fell 8.1, 2.7, 0.91, 0.33, 0.13 dB at k = 1, 2, 4, 8, 16: 2.7 to 3 times
+#: per halving (factor 0.5 to 0.6), so 1 leaves room (``benches/surface_model_grid.py``).
+TAIL_FACTOR_MIN = 1.0
 
 
 @dataclass(frozen=True)
 class SurfaceErrors:
-    """Error estimates of a surface run's levels at its spacings and the chosen tol.
+    """Error estimates of a surface run's levels at its chosen model grid and tol.
 
     Attributes:
-        bands: band numbers, those reported at the run's tile length and dx.
+        bands: band numbers, those reported at the run's tile length and the data's dx.
         in_budget: which of ``bands`` the budget applies to (:mod:`roadtex.budget.noise`).
         level_error_db: model ("line", "areal") -> upper estimate (dB) per band of the numerical
             error of that model's enveloped and pressure levels (the larger of the two), any row.
         work_speedup: the solver work (iterations x N log2 N, both models) at the reference
-            tolerance over that at ``tol``, on the pilot tiles.
+            tolerance over that at ``tol``, on the pilot tiles, both at the chosen ``refine``.
         pilot_tiles: the tiles (indices along the run) the estimate comes from.
         tol: the solver tolerance the estimates are for (the chosen one).
+        refine: the model grid's refinement k the estimates are for (along and across the road:
+            the model grid is (dx / k, dy / k); 1 is the data's grid).
     """
 
     bands: np.ndarray
@@ -110,6 +147,7 @@ class SurfaceErrors:
     work_speedup: float
     pilot_tiles: tuple[int, ...]
     tol: float
+    refine: int = 1
 
     def worst_db(self) -> float:
         """The largest estimate over both models in the budget bands (dB; 0 without budget bands)."""
@@ -123,28 +161,58 @@ def worst_in_budget(estimates: dict[str, np.ndarray], in_budget: np.ndarray) -> 
     return float(max((v.max() for v in values if v.size), default=0.0))
 
 
-def pilot_window(n_y: int, n_x: int, rows: np.ndarray) -> tuple[slice, np.ndarray]:
+def refine_ladder(refine: int | None) -> tuple[int, ...]:
+    """The model grid refinements the pilot solves: :data:`REFINE_LADDER`, or ``(k, 2 k)`` for a
+    forced ``k``."""
+    return REFINE_LADDER if refine is None else (int(refine), 2 * int(refine))
+
+
+def pilot_window(n_y: int, n_x: int, rows: np.ndarray, top: int = REFINE_LADDER[-1]) -> tuple[np.ndarray, np.ndarray]:
     """The rows of a tile (``n_y`` x ``n_x`` points, analysed ``rows``) the pilot solves: all of
-    them when they fit in :data:`AREAL_WINDOW_POINTS`, else a strip of that many points (at least
-    :data:`MIN_WINDOW_ROWS` rows) centred on the analysed row nearest the middle. Returns the
-    strip's rows and the positions in ``rows`` of the analysed rows inside it."""
-    count = min(n_y, max(MIN_WINDOW_ROWS, AREAL_WINDOW_POINTS // max(n_x, 1)))
+    them when they fit in :data:`AREAL_WINDOW_POINTS` (and in :data:`AREAL_PILOT_POINTS` at the
+    ladder's finest ``top``), else a strip of that many points (at least :data:`MIN_WINDOW_ROWS`
+    rows) across the tile's seam: its last rows then its first, as the periodic tile joins them.
+    The rows next to the seam err most on a model grid (the road joined across the jump from the
+    last row to the first; 0.71 dB at k = 8 on a porous asphalt tile's row 0, 0.04 to 0.07 on its
+    inner analysed rows), and the job's first and last analysed rows are there. Returns the
+    strip's rows (indices in the tile, in the strip's order) and the positions in ``rows`` of the
+    analysed rows inside it."""
+    points = min(AREAL_WINDOW_POINTS, AREAL_PILOT_POINTS // top ** 2)
+    count = min(n_y, max(MIN_WINDOW_ROWS, points // max(n_x, 1)))
     rows = np.asarray(rows, dtype=np.int64)
     if count >= n_y:
-        return slice(0, n_y), np.arange(rows.size)
-    centre = int(rows[np.argmin(np.abs(rows - 0.5 * (n_y - 1)))])
-    start = int(np.clip(centre - count // 2, 0, n_y - count))
-    return slice(start, start + count), np.flatnonzero((rows >= start) & (rows < start + count))
+        return np.arange(n_y), np.arange(rows.size)
+    strip = np.r_[np.arange(n_y - count // 2, n_y), np.arange(count - count // 2)]
+    return strip, np.flatnonzero(np.isin(rows, strip))
 
 
-def pilot_tile_indices(n_tiles: int, points_per_window: int) -> np.ndarray:
+def pilot_tile_indices(n_tiles: int, points_per_window: int, top: int = REFINE_LADDER[-1]) -> np.ndarray:
     """Up to :data:`AREAL_PILOT_TILES` tiles spread evenly over ``n_tiles``, as many as fit in
-    :data:`AREAL_PILOT_POINTS` at half spacing (empty: one window does not fit)."""
-    fits = AREAL_PILOT_POINTS // (4 * max(points_per_window, 1))
+    :data:`AREAL_PILOT_POINTS` on the ladder's finest rung ``top`` (empty: one window does not fit)."""
+    fits = AREAL_PILOT_POINTS // (top ** 2 * max(points_per_window, 1))
     count = min(AREAL_PILOT_TILES, n_tiles, fits)
     if count <= 0:
         return np.empty(0, dtype=np.int64)
     return np.unique(np.round(np.linspace(0, n_tiles - 1, count)).astype(np.int64))
+
+
+def row_strips(field: np.ndarray, rows: np.ndarray, refine: int) -> np.ndarray:
+    """The mean over each data row's width of a field on the model grid: (..., ny k, nx k) ->
+    (..., rows, nx k), the fine rows within dy / 2 of data row ``r`` (``r k``, trapezoid-weighted,
+    periodic across), so that ``refine`` = 1 gives the rows themselves (see the module)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    if refine == 1:
+        return field[..., rows, :]
+    offsets = np.arange(-(refine // 2), refine // 2 + 1)
+    weights = np.ones(offsets.size)
+    if refine % 2 == 0:
+        weights[[0, -1]] = 0.5
+    weights /= weights.sum()
+    n = field.shape[-2]
+    total = np.zeros(field.shape[:-2] + (rows.size, field.shape[-1]))
+    for offset, weight in zip(offsets, weights):
+        total += weight * field[..., (rows * refine + offset) % n, :]
+    return total
 
 
 @dataclass(frozen=True)
@@ -156,38 +224,56 @@ class _Setup:
     method: Method
     max_iterations: int
     threads: int | None
+    interpolant: Interpolant = "linear"
 
 
-def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float,
+def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float, refine: int,
                  bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """The line model on rows ``lines`` (rows, x): levels (2, rows x moduli, bands), reported, work."""
-    batch = contact_many(lines, dx, setup.moduli, setup.mean_pressure, poisson=setup.poisson, tol=tol,
+    """The line model on rows ``lines`` (rows, x) refined ``refine`` times: levels (2, rows x
+    moduli, bands), reported, work."""
+    fine = refine_periodic(lines, refine, setup.interpolant)
+    batch = contact_many(fine, dx / refine, setup.moduli, setup.mean_pressure, poisson=setup.poisson, tol=tol,
                          max_iterations=setup.max_iterations, threads=setup.threads, warm_start=True,
                          raise_on_nonconvergence=False)
-    levels, ok = contact_levels(batch.envelope, batch.pressure, dx, bands, setup.kind, setup.method)
-    return levels, ok, solver_work(batch.iterations, lines.shape[-1])
+    levels, ok = contact_levels(batch.envelope, batch.pressure, dx / refine, bands, setup.kind, setup.method)
+    return levels, ok, solver_work(batch.iterations, fine.shape[-1])
 
 
 def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol: float, rows: np.ndarray,
-                  factor: int, shift: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """The areal model on tiles ``heights`` (tiles, ny, nx) refined ``factor`` times each way; levels
-    (2, tiles x lines x moduli, bands) along the analysed ``rows`` (the mean of the ``factor`` fine
-    rows of each), moved by ``shift`` (tiles, lines, nx at the file's dx) as the job moves them."""
-    fine = np.repeat(np.repeat(heights, factor, axis=1), factor, axis=2)
-    solved = contact_surface_many(fine, dx / factor, dy / factor, youngs_modulus=setup.moduli,
+                  refine: int, shift: np.ndarray, bands: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The areal model on tiles ``heights`` (tiles, ny, nx) on a model grid ``refine`` times finer
+    each way; levels (2, tiles x lines x moduli, bands) along the analysed data ``rows`` (see the
+    module), the envelope moved by ``shift`` (tiles, lines, nx at the data's dx, refined as the road)
+    as the job moves it."""
+    fine = refine_periodic_surface(heights, refine, refine, setup.interpolant)
+    solved = contact_surface_many(fine, dx / refine, dy / refine, youngs_modulus=setup.moduli,
                                   mean_pressure=setup.mean_pressure, poisson=setup.poisson, tol=tol,
                                   max_iterations=setup.max_iterations, threads=setup.threads, warm_start=True,
                                   raise_on_nonconvergence=False)
-    n_tiles, n_moduli = solved.envelope.shape[:2]
-    nx = fine.shape[2]
+    rows = np.asarray(rows, dtype=np.int64)
+    # (tiles, moduli, lines, x) -> (tiles, lines, moduli, x)
+    envelope = np.moveaxis(solved.envelope[:, :, rows * refine, :], 1, 2)
+    pressure = np.moveaxis(row_strips(solved.pressure, rows, refine), 1, 2)
+    envelope = envelope - refine_periodic(shift, refine, setup.interpolant)[:, :, None, :]
+    levels, ok = contact_levels(envelope, pressure, dx / refine, bands, setup.kind, setup.method)
+    return levels, ok, solver_work(solved.iterations, fine.shape[1] * fine.shape[2])
 
-    def along_rows(field: np.ndarray) -> np.ndarray:   # (tiles, moduli, fine ny, nx) -> (tiles, lines, moduli, nx)
-        blocks = field.reshape(n_tiles, n_moduli, -1, factor, nx)[:, :, rows].mean(axis=3)
-        return np.moveaxis(blocks, 1, 2)
 
-    envelope = along_rows(solved.envelope) - np.repeat(shift, factor, axis=-1)[:, :, None, :]
-    levels, ok = contact_levels(envelope, along_rows(solved.pressure), dx / factor, bands, setup.kind, setup.method)
-    return levels, ok, solver_work(solved.iterations, fine.shape[1] * nx)
+def tail_factor(last: np.ndarray, before: np.ndarray | None) -> float:
+    """The finest rung's Richardson factor from its last step ``last`` and the one ``before`` it
+    (dB per (level, band), extended to the run's rows): 1 / (r - 1) for the shrink r, the median
+    over levels and bands of before / last (one band's step alone is noisy: a band can shrink
+    little from one halving to the next and much at the following), within
+    [:data:`TAIL_FACTOR_MIN`, :data:`TAIL_FACTOR`]; :data:`TAIL_FACTOR` without a step before (a
+    forced k) or where the levels do not shrink (r <= 1, or no finite ratio)."""
+    if before is None:
+        return TAIL_FACTOR
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = np.asarray(before) / np.asarray(last)
+    ratios = ratios[np.isfinite(ratios)]
+    if ratios.size == 0 or np.median(ratios) <= 1.0:
+        return TAIL_FACTOR
+    return float(np.clip(1.0 / (np.median(ratios) - 1.0), TAIL_FACTOR_MIN, TAIL_FACTOR))
 
 
 def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarray, rows: np.ndarray, dx: float,
@@ -195,25 +281,28 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
                          youngs_moduli: np.ndarray, mean_pressure: float, poisson: float,
                          tols: Sequence[float], budget_db: float, band_kind: BandKind, band_method: Method,
                          max_iterations: int, threads: int | None,
-                         pilot_tiles: tuple[int, ...] = (), window_factor: float = 1.0) -> SurfaceErrors:
-    """Error estimates of a surface run's levels from its pilot tiles, at the loosest tolerance
-    that needs no more (see the module).
+                         pilot_tiles: tuple[int, ...] = (), window_factor: float = 1.0,
+                         refine: int | None = None, interpolant: Interpolant = "linear",
+                         tile_points: int | None = None) -> SurfaceErrors:
+    """Error estimates of a surface run's levels from its pilot tiles, at the cheapest model grid
+    and the loosest tolerance that need no more (see the module).
 
-    The candidate tolerances ``tols`` are tried loosest first; the first whose worst estimate in
-    the budget bands is within ``budget_db`` is chosen, or, when the spacing alone already errs
-    more (the floor: the estimate as tol goes to 0), within 5 % (and 0.01 dB) of that floor, as the
-    line runs' pilot does; the tightest otherwise. One candidate: it is estimated (a forced tol).
+    The model grid refinements of :func:`refine_ladder` are tried cheapest first; the first whose
+    worst estimate (at the reference tolerance) in the budget bands is within ``budget_db`` is
+    chosen, or, when none is, the cheapest within 5 % (and 0.01 dB) of the best. Then the candidate
+    tolerances ``tols`` at that grid, loosest first, the same way against the floor (the grid's
+    estimate alone). One candidate (a forced ``refine`` or tol): it is estimated.
 
     Args:
         heights: the pilot tiles (or their windows, :func:`pilot_window`) as solved (tiles, ny,
-            nx; m, plane removed).
+            nx; m, plane removed), at the data's spacings.
         lines: the line model's stretches of every analysed row of the pilot tiles (tiles, lines,
             nx; m, each its line removed).
         shift: the move of those rows of the areal envelope into the line model's frame (tiles,
             rows, nx; m): each row's least-squares line.
         rows: the rows of ``heights`` whose areal levels are compared (indices in it, across the
             road; the job uses every row of the window).
-        dx, dy: the run's spacings along and across the road (m).
+        dx, dy: the data's spacings along and across the road (m).
         bands: band numbers to estimate (those the job reports); in_budget: which are budget bands.
         run_rows: rows (tiles x lines x moduli) of each model in the whole run.
         tols: candidate solver tolerances (relative residual).
@@ -223,19 +312,24 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         pilot_tiles: the tiles' indices along the run (their count goes to the run's table).
         window_factor: multiplies the areal estimate: :data:`WINDOW_FACTOR` when ``heights`` are
             windows of the run's tiles, 1 for whole tiles.
+        refine: the model grid's k (along and across), forced; None chooses it (see the module).
+        interpolant: the road between readings (:data:`roadtex.models.grid.INTERPOLANTS`).
+        tile_points: points of one of the run's tiles (ny nx; None: those of ``heights``): the
+            rungs whose model grid of a tile exceeds :data:`MAX_MODEL_POINTS` are not chosen (1 is).
 
     Returns:
-        A :class:`SurfaceErrors` at the chosen tolerance.
+        A :class:`SurfaceErrors` at the chosen model grid and tolerance.
     """
     setup = _Setup(np.asarray(youngs_moduli, dtype=np.float64), mean_pressure, poisson, band_kind, band_method,
-                   max_iterations, threads)
+                   max_iterations, threads, check_interpolant(interpolant))
     flat = lines.reshape(-1, lines.shape[-1])
     budget_mask = np.asarray(in_budget, dtype=bool)
+    ladder = refine_ladder(None if refine is None else check_refine(refine))
 
-    def solve(model: str, tol: float, factor: int = 1) -> tuple[np.ndarray, np.ndarray, float]:
+    def solve(model: str, tol: float, k: int) -> tuple[np.ndarray, np.ndarray, float]:
         if model == "line":
-            return _line_levels(setup, np.repeat(flat, factor, axis=-1), dx / factor, tol, bands)
-        return _areal_levels(setup, heights, dx, dy, tol, rows, factor, shift, bands)
+            return _line_levels(setup, flat, dx, tol, k, bands)
+        return _areal_levels(setup, heights, dx, dy, tol, rows, k, shift, bands)
 
     def spread(measured: np.ndarray, ok: np.ndarray) -> np.ndarray:
         """(2, bands): the differences (2, pilot rows, bands) extended to every row of the run. A
@@ -244,16 +338,31 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         sample = np.where(ok & np.isfinite(measured), measured, np.nan)
         return extreme(np.moveaxis(sample, 1, 0), run_rows)
 
-    reference = {model: solve(model, REFERENCE_TOL) for model in MODELS}
-    # Richardson: L(h) - L(0) ~ factor (L(h) - L(h / 2)); the spacing's part of every estimate
-    own = {}
     scale = {"line": 1.0, "areal": window_factor}   # a window's areal estimate, scaled up as a whole
+    solved = {model: {k: solve(model, REFERENCE_TOL, k) for k in ladder} for model in MODELS}
+    top, below = ladder[-1], ladder[-2]
+    # Richardson over the ladder: the finest rung stands for the converged answer, its own error
+    # the tail factor x its last step; each rung's error is its distance from the finest plus that
+    grid: dict[int, dict[str, np.ndarray]] = {}
     for model in MODELS:
-        halved, ok_half, _ = solve(model, REFERENCE_TOL, factor=2)
-        own[model] = RICHARDSON_FACTOR * spread(difference(halved, reference[model][0]), ok_half) * scale[model]
+        finest, ok_top, _ = solved[model][top]
+        last = spread(difference(finest, solved[model][below][0]), ok_top)
+        tail = tail_factor(last, spread(difference(solved[model][below][0], solved[model][ladder[-3]][0]), ok_top)
+                           if len(ladder) >= 3 else None) * last
+        for k in ladder:
+            step = 0.0 if k == top else spread(difference(solved[model][k][0], finest), ok_top)
+            grid.setdefault(k, {})[model] = (step + tail) * scale[model]
+    worst = {k: worst_in_budget({m: grid[k][m].max(axis=0) for m in MODELS}, budget_mask) for k in ladder}
+    points = int(np.prod(heights.shape[1:])) if tile_points is None else int(tile_points)
+    choices = ladder[:1] if refine is not None else tuple(
+        c for c in ladder if c == 1 or points * c ** 2 <= MAX_MODEL_POINTS)
+    best = min(worst[k] for k in choices)
+    allowed_k = budget_db if best <= budget_db else 1.05 * best + 0.01
+    k = next(c for c in choices if worst[c] <= allowed_k or c == choices[-1])
+    own, reference = grid[k], {model: solved[model][k] for model in MODELS}
 
-    floor = worst_in_budget({m: own[m].max(axis=0) for m in MODELS}, budget_mask)
-    # within the budget when the spacing allows it; else near the floor (as the line runs' pilot)
+    floor = worst[k]
+    # within the budget when the grid allows it; else near the floor (as the line runs' pilot)
     allowed = budget_db if floor <= budget_db else 1.05 * floor + 0.01
     candidates = sorted(tols, reverse=True)
     if not np.isfinite(floor):   # no bounded sample in some budget band: nothing to judge a loose tol by
@@ -264,7 +373,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
             if tol == REFERENCE_TOL:   # the reference itself: no tolerance error left to measure
                 levels, ok, w = reference[model]
             else:
-                levels, ok, w = solve(model, tol)
+                levels, ok, w = solve(model, tol, k)
             job_work += w
             by_tol = SPREAD_FACTOR * spread(difference(levels, reference[model][0]), ok) * scale[model]
             estimate = (by_tol + own[model]).max(axis=0)
@@ -274,4 +383,4 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     reference_work = sum(reference[m][2] for m in MODELS)
     speedup = reference_work / job_work if job_work > 0 else 1.0
     return SurfaceErrors(np.asarray(bands), budget_mask, estimates, float(speedup),
-                         tuple(int(t) for t in pilot_tiles), float(tol))
+                         tuple(int(t) for t in pilot_tiles), float(tol), int(k))

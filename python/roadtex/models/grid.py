@@ -20,6 +20,12 @@ segments repeat, and are seamless: :meth:`roadtex.Profile.segments`):
 - ``"bandlimited"``: the trigonometric interpolant (zero-padded DFT, :func:`scipy.signal.resample`):
   the road with no wavelength shorter than two samples; it overshoots near sharp tops.
 
+Surfaces (heights ``[iy, ix]``, periodic both ways as the areal model's tiles are) are refined
+``k_along`` times along the road and ``k_across`` times across it by the same interpolant along each
+axis in turn (:func:`refine_periodic_surface`; ``"linear"`` is then bilinear): every
+(``k_across``-th row, ``k_along``-th column) point is a reading, and each data row is, on the
+fine grid, exactly that row refined along the road as a line profile would be.
+
 The spread of the converged levels between these is what the data's sampling cannot tell (see
 :func:`roadtex.budget.study` and README "Model grid"): it is stated apart from the numerical error.
 """
@@ -91,6 +97,34 @@ def refine_periodic(heights: np.ndarray, refine: int, interpolant: Interpolant =
         return fine
     fine = resample(z, n * k, axis=-1)
     return fine
+
+
+def refine_periodic_surface(heights: np.ndarray, k_along: int, k_across: int = 1,
+                            interpolant: Interpolant = "linear") -> np.ndarray:
+    """Periodic surfaces sampled every (dy, dx), on a grid ``k_across`` x ``k_along`` times finer.
+
+    The tensor-product interpolant: :func:`refine_periodic` along the road (the last axis), then
+    across it (the second last), so ``"linear"`` is bilinear.
+
+    Args:
+        heights: (..., ny, nx) heights (m), rows across the road (spacing dy), columns along it
+            (dx), periodic both ways (the areal model's tiles).
+        k_along, k_across: refinements >= 1 along and across; (1, 1) returns ``heights`` itself.
+        interpolant: as for :func:`refine_periodic`.
+
+    Returns:
+        (..., ny k_across, nx k_along) heights (m) every (dy / k_across, dx / k_along); point
+        ``[i k_across, j k_along]`` is reading ``[i, j]``, and fine row ``i k_across`` is data row
+        ``i`` refined along the road alone (``refine_periodic(heights[..., i, :], k_along)``).
+    """
+    along, across = check_refine(k_along, "k_along"), check_refine(k_across, "k_across")
+    z = np.asarray(heights, dtype=np.float64)
+    if z.ndim < 2:
+        raise InvalidInputError(f"heights must have at least 2 axes (rows across, columns along), got shape {z.shape}")
+    fine = refine_periodic(z, along, interpolant)
+    if across == 1:
+        return fine
+    return np.swapaxes(refine_periodic(np.swapaxes(fine, -1, -2), across, interpolant), -1, -2).copy()
 
 
 def coarse_points(fine: np.ndarray, refine: int) -> np.ndarray:

@@ -342,8 +342,9 @@ def budget_summary(results: Results) -> str:
     shortest, longest = noise_wavelength_range()
     (f_low, f_high), (v_low, v_high) = NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH
     within = plan.get("within_budget")
-    surfaces = ("; surface runs at their own spacings and the tolerance their own pilot chose (runs.parquet "
-                "dx_used, tol_used)" if results.surface_bands is not None else "")
+    surfaces = ("; surface runs on their own model grid (k times finer than their spacings each way) and the "
+                "tolerance their own pilot chose (runs.parquet refine, refine_across, model_dx, model_dy, "
+                "tol_used)" if results.surface_bands is not None else "")
     joined = INTERPOLANT_WORDS.get(str(results.options.get("interpolant", "linear")), "joined")
     text = [
         f"Error budget {plain(plan['budget_db'])} dB on every level (texture, enveloped texture, contact pressure) "
