@@ -65,6 +65,18 @@ def setting_sentence(dx: float, refine: int | None, tol: float | None) -> str:
     return f"dx = {plain(dx * MM)} mm, k = {k} (model grid {plain(dx / k * MM)} mm), tol = {tolerance(tol)}"
 
 
+def line_setting(plan: dict) -> str:
+    """The line runs' setting in a sentence: one k for all (:func:`setting_sentence`), or the job's
+    dx and tol with each pilot group's own k ("k = 6 to 8 by pilot group (model grid ...)")."""
+    ks = sorted({int(g["refine"]) for g in (plan.get("group_errors") or {}).values() if g.get("refine")})
+    if len(ks) < 2:
+        return setting_sentence(plan["dx"], plan.get("refine"), plan.get("tol"))
+    dx = plan["dx"]
+    return (f"dx = {plain(dx * MM)} mm, k = {ks[0]} to {ks[-1]} by pilot group (model grid "
+            f"{plain(dx / ks[-1] * MM)} to {plain(dx / ks[0] * MM)} mm; runs.parquet refine, model_dx), "
+            f"tol = {tolerance(plan.get('tol'))}")
+
+
 def point_label(dx: float, refine: int) -> str:
     """A point of the figure: "0.5" on the data's grid, "0.5×8" refined 8 times (dx in m)."""
     return plain(dx * MM) + (f"×{int(refine)}" if refine != 1 else "")
@@ -351,7 +363,7 @@ def budget_summary(results: Results) -> str:
         f"in the tyre/road noise bands (those marked “in budget” below: reported, and overlapping {plain(f_low)} Hz to "
         f"{plain(f_high / 1e3)} kHz at {plain(v_low)} to {plain(v_high)} km/h, wavelengths {plain(shortest * MM)} "
         f"to {plain(longest * MM)} mm). "
-        f"Every line run was solved at {setting_sentence(plan['dx'], plan.get('refine'), plan['tol'])}: the contact "
+        f"Every line run was solved at {line_setting(plan)}: the contact "
         f"model on a grid k times finer than the data's, the readings {joined}, texture levels the data's "
         f"({html.escape(str(plan.get('source', '')))}){surfaces}. "
         f"Within budget: {'yes' if within else 'no'}; worst estimated error in the budget bands "
