@@ -1,0 +1,68 @@
+"""Hostile and damaged files (issue 29): each is refused as that file's fault, with a clear
+ProfileFormatError naming it, before anything is allocated from what the file claims; in a job it
+is that run's recorded failure and the other runs go on."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+
+from roadtex.archive import ProcessingOptions, process
+from roadtex.errors import ProfileFormatError
+from roadtex.profiles import read_profile, write_profile
+from roadtex.profiles.pavements import synthetic_pavement
+
+DX = 5e-4
+pytestmark = pytest.mark.filterwarnings("ignore::roadtex.errors.ErrorBudgetWarning")
+
+
+def npy_with_header(path: Path, header: str, payload: bytes = b"") -> Path:
+    """A version-1.0 .npy file whose header text is ``header`` (padded as numpy pads it)."""
+    text = header.encode("latin1")
+    text += b" " * (63 - (len(text) + 10) % 64) + b"\n"
+    path.write_bytes(b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text + payload)
+    return path
+
+
+def huge_claim(path: Path) -> Path:
+    return npy_with_header(path, "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000,), }",
+                           b"\x00" * 80)
+
+
+def test_a_header_claiming_terabytes_is_refused_before_allocating(tmp_path: Path) -> None:
+    bad = huge_claim(tmp_path / "huge.npy")
+    assert bad.stat().st_size < 300
+    with pytest.raises(ProfileFormatError, match=r"huge\.npy: damaged \.npy: its header claims shape \(1000000000000,\)"):
+        read_profile(bad, dx=DX)
+
+
+def test_a_huge_claim_is_one_runs_failure_and_the_job_goes_on(tmp_path: Path) -> None:
+    good = write_profile(synthetic_pavement("dense_asphalt", 0.6, DX, seed=0), tmp_path / "good.parquet")
+    bad = huge_claim(tmp_path / "huge.npy")
+    rows = pl.DataFrame({"path": [str(bad), str(good)], "run_id": ["huge", "good"], "dx": [DX, None]})
+    options = ProcessingOptions(youngs_moduli=(1e7,), dx=DX, segment_length=0.128, tol=1e-6)
+    summary = process(rows, tmp_path / "out", options, quiet=True, threads=1)
+    assert (summary.processed, summary.failed) == (1, 1)
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["run_id"].to_list() == ["huge"]
+    assert "header claims shape" in errors["message"][0]
+
+
+def test_an_unclosed_bracket_in_the_header_is_a_format_error_naming_the_file(tmp_path: Path) -> None:
+    bad = tmp_path / "bracket.npy"
+    bad.write_bytes(b"\x93NUMPY\x01\x00\x40\x00{'descr': [(" + b" " * 51 + b"\n")
+    with pytest.raises(ProfileFormatError, match=r"bracket\.npy: not a readable \.npy array: damaged header"):
+        read_profile(bad, dx=DX)
+
+
+def test_an_npz_saved_as_npy_is_named_as_such(tmp_path: Path) -> None:
+    bad = tmp_path / "archive.npy"
+    with open(bad, "wb") as handle:
+        np.savez(handle, heights=np.zeros(100))
+    assert zipfile.is_zipfile(bad)
+    with pytest.raises(ProfileFormatError, match=r"archive\.npy: a \.npz archive"):
+        read_profile(bad, dx=DX)
