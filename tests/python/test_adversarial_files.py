@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
-from roadtex.errors import ProfileFormatError
+from roadtex.errors import InvalidInputError, ProfileFormatError
 from roadtex.profiles import read_profile, write_profile
 from roadtex.profiles.pavements import synthetic_pavement
 
@@ -66,3 +66,12 @@ def test_an_npz_saved_as_npy_is_named_as_such(tmp_path: Path) -> None:
     assert zipfile.is_zipfile(bad)
     with pytest.raises(ProfileFormatError, match=r"archive\.npy: a \.npz archive"):
         read_profile(bad, dx=DX)
+
+
+def test_a_dx_a_million_times_too_fine_is_refused_before_allocating() -> None:
+    profile = synthetic_pavement("dense_asphalt", 0.6, DX, seed=0)
+    with pytest.raises(InvalidInputError, match=r"dx = 1e-12 m would resample 1200 readings .* more than 1000 per reading"):
+        profile.resample(1e-12)
+    assert profile.resample(DX / 100).heights.size == 120_000   # finer, within reason, still works
+    with pytest.raises(InvalidInputError, match=r"dx = 1e-12 m is finer than 1e-06 m"):
+        ProcessingOptions(dx=1e-12)

@@ -25,6 +25,9 @@ from roadtex.models.grid import check_interpolant, check_refine
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.spectra.bands import check_band_kind
 
+#: The finest job interval accepted (m): a laser profilometer's spot is tens of micrometres, and
+#: a run of metres at 1e-12 m would need terabytes (a unit slip, refused before any work).
+MIN_JOB_DX = 1e-6
 #: Solver tolerance without an error budget (relative residual).
 DEFAULT_TOL = 1e-6
 
@@ -115,6 +118,10 @@ class ProcessingOptions:
         object.__setattr__(self, "max_iterations", positive_int(self.max_iterations, "max_iterations"))
         if self.dx is not None:
             object.__setattr__(self, "dx", positive(self.dx, "dx", "m"))
+            if self.dx < MIN_JOB_DX:
+                raise InvalidInputError(f"dx = {self.dx:g} m is finer than {MIN_JOB_DX:g} m (1 um), finer than any "
+                                        "texture profilometer samples: is it in the wrong unit? dx is in metres "
+                                        "(0.5 mm is 0.5e-3)")
         if self.refine is not None:
             object.__setattr__(self, "refine", check_refine(self.refine))
         check_interpolant(self.interpolant)

@@ -37,6 +37,10 @@ from roadtex._checks import finite_number, positive
 from roadtex.errors import ConditioningWarning, InvalidInputError
 from roadtex.profiles.trend import line_fits
 
+#: The most samples :func:`resample` makes per reading (a grid 1000 times finer than the data):
+#: finer adds only interpolated points, and far finer is a unit mistake that would exhaust memory.
+MAX_RESAMPLE_FACTOR = 1000
+
 if TYPE_CHECKING:
     from roadtex.profiles.profile import Profile
 
@@ -300,7 +304,14 @@ def resample(profile: Profile, dx: float) -> Profile:
     """Resamples to a uniform grid of spacing ``dx`` (m) by interval averaging; documented at :meth:`Profile.resample`."""
     new_dx = positive(dx, "dx")
     left = profile.positions[0] - 0.5 * profile.dx
-    n_bins = max(1, int(math.ceil(profile.length / new_dx - 1e-9)))
+    grid = profile.length / new_dx
+    # checked before allocating: a dx a million times too fine (a unit slip) asked for terabytes
+    if grid > MAX_RESAMPLE_FACTOR * profile.heights.size + 1:
+        raise InvalidInputError(
+            f"dx = {new_dx:g} m would resample {profile.heights.size} readings at {profile.dx:g} m to "
+            f"{grid:.4g} samples, more than {MAX_RESAMPLE_FACTOR} per reading: interpolation adds points, "
+            "not texture (is dx in the wrong unit? it is in metres)")
+    n_bins = max(1, int(math.ceil(grid - 1e-9)))
     scaled = profile.positions - left
     scaled *= 1.0 / new_dx
     scaled += 1e-9
