@@ -48,11 +48,12 @@ from roadtex.archive.store import (
     remove_stale_temporaries,
     run_fingerprint,
     write_atomically,
+    write_error,
     write_json,
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
+from roadtex.errors import ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
 from roadtex.profiles.plausibility import judged_once
 
 Engine = Literal["local", "dask"]
@@ -127,7 +128,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / STATUS_FILE).unlink(missing_ok=True)  # from here until the new status lands, the run is not done
     except OSError as exc:
-        raise ArchiveWriteError(exc.errno, f"cannot write to {run_dir}: {exc.strerror or exc}") from exc
+        raise write_error(exc.errno, f"cannot write to {run_dir}: {exc.strerror or exc}") from exc
     started = time.perf_counter()
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}

@@ -36,10 +36,20 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     except Exception as exc:
         # polars reports a full disk as its own ComputeError ("... os error 28"), not OSError:
         # any failure to write output is a write failure, and stops the job.
-        temporary.unlink(missing_ok=True)
         code = exc.errno if isinstance(exc, OSError) else None
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise ArchiveWriteError(code, f"cannot write {path}: {reason}") from exc
+        try:
+            temporary.unlink(missing_ok=True)
+        except OSError as cleanup:
+            # a file system turned read-only refuses the cleanup too: the write's error is the one to report
+            reason += f" (and its temporary file {temporary.name} could not be removed: {cleanup.strerror or cleanup})"
+        raise write_error(code, f"cannot write {path}: {reason}") from exc
+
+
+def write_error(code: int | None, message: str) -> ArchiveWriteError:
+    """An ArchiveWriteError with ``code`` as its errno when there is one (OSError's two-argument
+    form prints "[Errno None]" before the message otherwise)."""
+    return ArchiveWriteError(code, message) if code is not None else ArchiveWriteError(message)
 
 
 def write_json(path: Path, payload: dict[str, Any]) -> None:
@@ -73,7 +83,7 @@ def check_writable(out: Path) -> None:
         probe.write_bytes(b"roadtex")
         probe.unlink()
     except OSError as exc:
-        raise ArchiveWriteError(exc.errno, f"output folder {out} is not writable: {exc.strerror or exc}") from exc
+        raise write_error(exc.errno, f"output folder {out} is not writable: {exc.strerror or exc}") from exc
 
 
 def remove_stale_temporaries(out: Path) -> None:
