@@ -25,6 +25,7 @@ from roadtex.errors import (
                             ClappError,
                             ConditioningWarning,
                             ConvergenceError,
+                            DamagedResultsError,
                             ErrorBudgetWarning,
                             ImplausibleParameterWarning,
                             ImplausibleTextureWarning,
@@ -75,8 +76,8 @@ from roadtex.surfaces import Surface, read_surface, synthetic_surface
 __all__ = [
     "__version__", "errors",
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
-    "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
+    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "DamagedResultsError", "MissingDependencyError",
+    "RunFailure", "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",
     "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
     "SurfaceBatch", "SurfaceResult", "contact_surface", "contact_surface_many",

@@ -63,6 +63,12 @@ class ResultsNotFoundError(RoadtexError, FileNotFoundError):
     that writes it)."""
 
 
+class DamagedResultsError(RoadtexError, ValueError):
+    """A job's output file cannot be trusted: it cannot be read, or its bytes differ from the
+    checksum the job recorded when it wrote it (changed or damaged since). The message names the
+    file; processing the manifest again rebuilds it."""
+
+
 class MissingDependencyError(RoadtexError, ImportError):
     """An optional dependency is needed for what was asked (the message says which extra to install)."""
 
@@ -97,7 +103,8 @@ class ConditioningWarning(RoadtexWarning):
 
 __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
+    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "DamagedResultsError",
+    "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",
 ]

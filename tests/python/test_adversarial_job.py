@@ -5,13 +5,19 @@ jobs on one folder, job-wide options checked before any work."""
 from __future__ import annotations
 
 import errno
+import shutil
 from pathlib import Path
 
 import polars as pl
 import pytest
+from polars.testing import assert_frame_equal
 
+from roadtex.archive import ProcessingOptions, process
 from roadtex.archive.store import write_atomically
+from roadtex.cli import main
 from roadtex.errors import ArchiveWriteError
+from roadtex.profiles import write_profile
+from roadtex.profiles.pavements import synthetic_pavement
 
 
 def test_a_read_only_file_system_reports_the_writes_error_not_the_cleanups(tmp_path: Path,
@@ -38,3 +44,62 @@ def test_a_write_failure_without_an_errno_does_not_say_errno_none(tmp_path: Path
         write_atomically(tmp_path / "table.parquet", write)
     assert "Errno" not in str(caught.value)
     assert str(caught.value).startswith("cannot write ")
+
+
+# --------------------------------------------------------------------------------------------
+# What the job wrote is verified before it is trusted again
+# --------------------------------------------------------------------------------------------
+
+DX = 5e-4
+OPTIONS = ProcessingOptions(youngs_moduli=(1e7,), dx=DX, segment_length=0.128, tol=1e-6, error_budget_db=None)
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory: pytest.TempPathFactory) -> tuple[pl.DataFrame, Path]:
+    """A two-run job, done once (the reference: its tables as written)."""
+    folder = tmp_path_factory.mktemp("runs")
+    rows = [{"path": str(write_profile(synthetic_pavement(kind, 0.6, DX, seed=i), folder / f"r{i}.parquet")),
+             "run_id": f"r{i}"} for i, kind in enumerate(("dense_asphalt", "porous_asphalt"))]
+    manifest = pl.DataFrame(rows)
+    out = tmp_path_factory.mktemp("out")
+    summary = process(manifest, out, OPTIONS, quiet=True, threads=1)
+    assert (summary.processed, summary.failed) == (2, 0)
+    return manifest, out
+
+
+def copy_of(finished: tuple[pl.DataFrame, Path], tmp_path: Path) -> Path:
+    out = tmp_path / "out"
+    shutil.copytree(finished[1], out)
+    return out
+
+
+def garble(path: Path, offset: int, count: int = 200) -> None:
+    data = bytearray(path.read_bytes())
+    data[offset:offset + count] = bytes(range(count))
+    path.write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbled"])
+def test_a_damaged_combined_table_is_refused_by_the_report_and_rebuilt_by_a_rerun(
+        finished, tmp_path: Path, damage: str, capsys: pytest.CaptureFixture[str]) -> None:
+    out = copy_of(finished, tmp_path)
+    combined = out / "segments.parquet"
+    if damage == "truncated":
+        combined.write_bytes(combined.read_bytes()[: combined.stat().st_size // 2])
+    else:
+        garble(combined, combined.stat().st_size // 3)
+    assert main(["report", str(out)]) == 2
+    assert "segments.parquet" in capsys.readouterr().err
+    summary = process(finished[0], out, OPTIONS, quiet=True, threads=1)
+    assert summary.skipped == 2
+    assert combined.read_bytes() == (finished[1] / "segments.parquet").read_bytes()
+
+
+def test_a_damaged_per_run_file_is_recomputed_on_rerun(finished, tmp_path: Path) -> None:
+    out = copy_of(finished, tmp_path)
+    per_run = out / "runs" / "r1" / "segments.parquet"
+    per_run.write_bytes(per_run.read_bytes()[:100])
+    summary = process(finished[0], out, OPTIONS, quiet=True, threads=1)
+    assert (summary.skipped, summary.processed) == (1, 1)
+    assert per_run.read_bytes() == (finished[1] / "runs" / "r1" / "segments.parquet").read_bytes()
+    assert_frame_equal(pl.read_parquet(out / "segments.parquet"), pl.read_parquet(finished[1] / "segments.parquet"))

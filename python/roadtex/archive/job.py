@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import os
 import platform
 import time
@@ -42,6 +43,8 @@ from roadtex.archive.schemas import (
 from roadtex.archive.store import (
     STATUS_FILE,
     check_writable,
+    checksums,
+    damaged_outputs,
     file_sha256,
     file_size,
     read_status,
@@ -56,6 +59,7 @@ from roadtex.comparisons.figures import edge_effect, example_comparisons
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
 from roadtex.profiles.plausibility import judged_once
 
+log = logging.getLogger("roadtex.archive")
 Engine = Literal["local", "dask"]
 #: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
 COMPARISON_TABLES = {"von_meier": VON_MEIER_SCHEMA, "penetration": PENETRATION_SCHEMA}
@@ -123,7 +127,12 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     previous = read_status(run_dir)
     if (not force and previous is not None and previous.get("fingerprint") == fingerprint
             and not (retry_failed and previous.get("state") == "error")):
-        return {**previous, "skipped": True}
+        damaged = damaged_outputs(run_dir, previous)
+        if not damaged:
+            return {**previous, "skipped": True}
+        # what the run wrote was changed or damaged since: computed again, never trusted
+        log.warning("%s: %s do(es) not match the checksums recorded; recomputing the run",
+                    run["run_id"], ", ".join(damaged))
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / STATUS_FILE).unlink(missing_ok=True)  # from here until the new status lands, the run is not done
@@ -146,12 +155,14 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=message if name in message else f"{name}: {message}", kilometres=0.0)
     else:
+        written = []
         for name, table in tables.items():
             if not isinstance(table, pl.DataFrame):   # None, or a note for the status
                 continue
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
+            written.append(f"{name}.parquet")
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
-                      seconds=time.perf_counter() - started)
+                      seconds=time.perf_counter() - started, checksums=checksums(run_dir, written))
         if tables.get("pilot_note") is not None:   # a surface run whose areal pilot could not run
             status["pilot_note"] = tables["pilot_note"]
     for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", "level_errors",
@@ -335,6 +346,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         "surface_pilot_notes": pilot_notes,
         "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
         "versions": software_versions(), "runs": manifest.height,
+        # verified by the report before it draws anything (a table damaged since is refused)
+        "checksums": checksums(out, [path.name for path in written.values()]),
     })
     written["parameters"] = out / "parameters.json"
     if options.keep_profiles:

@@ -26,6 +26,30 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
     return digest.hexdigest()
 
 
+def checksums(folder: Path, names: list[str]) -> dict[str, str]:
+    """SHA-256 of each named file of ``folder`` just written, recorded so that what the job wrote is
+    verified before it is trusted again (a rerun, the report)."""
+    return {name: file_sha256(folder / name) for name in names}
+
+
+def damaged_outputs(run_dir: Path, status: dict[str, Any]) -> list[str]:
+    """The output files of a finished run (``status`` state "ok") whose bytes no longer match the
+    checksums its status recorded, or are gone; all of them when the status recorded none."""
+    if status.get("state") != "ok":
+        return []
+    recorded = status.get("checksums")
+    if not isinstance(recorded, dict) or not recorded:
+        return ["(no checksums recorded)"]
+    damaged = []
+    for name, digest in recorded.items():
+        try:
+            if file_sha256(run_dir / name) != digest:
+                damaged.append(name)
+        except OSError:
+            damaged.append(name)
+    return damaged
+
+
 def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
