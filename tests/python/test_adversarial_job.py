@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import shutil
+import warnings
 from pathlib import Path
 
 import polars as pl
@@ -13,9 +14,10 @@ import pytest
 from polars.testing import assert_frame_equal
 
 from roadtex.archive import ProcessingOptions, process
+from roadtex.archive.plan import plan_job
 from roadtex.archive.store import write_atomically
 from roadtex.cli import main
-from roadtex.errors import ArchiveWriteError
+from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning
 from roadtex.profiles import write_profile
 from roadtex.profiles.pavements import synthetic_pavement
 
@@ -103,3 +105,19 @@ def test_a_damaged_per_run_file_is_recomputed_on_rerun(finished, tmp_path: Path)
     assert (summary.skipped, summary.processed) == (1, 1)
     assert per_run.read_bytes() == (finished[1] / "runs" / "r1" / "segments.parquet").read_bytes()
     assert_frame_equal(pl.read_parquet(out / "segments.parquet"), pl.read_parquet(finished[1] / "segments.parquet"))
+
+
+def test_the_plan_does_not_depend_on_the_manifests_order(tmp_path: Path) -> None:
+    # six runs of one group: the pilot reads three spread over them (positions 0, 2, 5), a
+    # different three when the manifest is reversed unless the runs are put in a stable order
+    rows = [{"path": str(write_profile(synthetic_pavement(kind, 0.6, DX, seed=i), tmp_path / f"p{i}.parquet")),
+             "run_id": f"p{i}"}
+            for i, kind in enumerate(["dense_asphalt", "porous_asphalt", "cement_concrete"] * 2)]
+    options = ProcessingOptions(youngs_moduli=(1e7,), segment_length=0.128, error_budget_db=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ErrorBudgetWarning)
+        forward, _ = plan_job(rows, options, threads=1)
+        backward, _ = plan_job(rows[::-1], options, threads=1)
+    assert forward.groups == backward.groups
+    assert (forward.dx, forward.tol, forward.worst_error_db) == (backward.dx, backward.tol, backward.worst_error_db)
+    assert forward.band_error_db == backward.band_error_db

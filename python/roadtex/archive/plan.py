@@ -192,6 +192,9 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         The plan, and the pilots' study rows (one per group, setting and band; empty without a
         budget) for pilot.parquet and the report's speed-against-error figure.
     """
+    # the pilots sample runs by position: in a stable order, so that the same runs listed in another
+    # order give the same plan (32 runs reversed gave worst errors of 0.381 against 0.415 dB)
+    runs = sorted(runs, key=lambda run: (str(run["run_id"]), str(run["path"])))
     if options.error_budget_db is None:
         return plan_without_budget(runs, options), pl.DataFrame()
     if not runs:   # surface runs only: each has its own pilot, spacings and tol
