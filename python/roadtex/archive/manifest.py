@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
-from roadtex.errors import ImplausibleTextureWarning, ManifestError
+from roadtex.errors import ImplausibleTextureWarning, ManifestError, RoadtexWarning
 from roadtex.profiles.plausibility import implausible_texture, judged_once
 from roadtex.profiles.readers import file_head, guess_format, read_profile
 from roadtex.surfaces.readers import is_surface_file, read_surface
@@ -276,12 +276,26 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata[name]
         rows.append(row)
+    renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
+               if row["run_id"] != path.stem]
+    if renamed:
+        warnings.warn(f"{len(renamed)} file(s) share a name with another file of the folder, so their run ids are "
+                      f"made from their paths: {'; '.join(renamed[:5])}{' ...' if len(renamed) > 5 else ''}",
+                      RoadtexWarning, stacklevel=2)
     table = pl.DataFrame(rows, infer_schema_length=None)
     return read_manifest(table, base_dir=root)
 
 
 def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
+    """The file's name without suffix; if an earlier file (in sorted order) took it, its path in
+    the folder joined by '_'; if that is taken too (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with
+    the first free suffix ``-2``, ``-3``, ... (deterministic: the files are listed sorted)."""
     taken = {r["run_id"] for r in rows}
     if path.stem not in taken:
         return path.stem
-    return "_".join(path.relative_to(root).with_suffix("").parts)
+    joined = "_".join(path.relative_to(root).with_suffix("").parts)
+    candidate, number = joined, 1
+    while candidate in taken:
+        number += 1
+        candidate = f"{joined}-{number}"
+    return candidate
