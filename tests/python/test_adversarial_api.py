@@ -53,3 +53,27 @@ def test_thread_counts_beyond_the_limit_are_refused_before_any_work() -> None:
     at_limit = roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, tol=1e-6, threads=limit)
     one = roadtex.contact_many(SEGMENTS, DX, youngs_modulus=[1e7], mean_pressure=2e5, tol=1e-6, threads=1)
     assert np.array_equal(at_limit.pressure, one.pressure)
+
+
+def test_masked_values_are_refused_by_the_solvers_and_drop_outs_in_a_profile() -> None:
+    heights = np.ma.masked_less(np.where(np.arange(1024) % 100 == 7, -0.85, SEGMENTS[0]), -0.5)
+    assert np.ma.count_masked(heights) == 11
+    with pytest.raises(InvalidInputError, match=r"heights is a masked array with 11 masked value\(s\)"):
+        roadtex.contact(heights, DX, 1e7, 2e5)
+    with pytest.raises(InvalidInputError, match=r"segments is a masked array"):
+        roadtex.contact_many(np.ma.stack([heights, heights]), DX, youngs_modulus=[1e7], mean_pressure=2e5)
+    profile = roadtex.Profile.from_heights(heights, DX)
+    assert np.isnan(profile.heights).sum() == 11 and np.nanmin(profile.heights) > -0.5
+    unmasked = np.ma.masked_array(SEGMENTS[0], mask=False)   # nothing masked: taken as it is
+    assert roadtex.contact(unmasked, DX, 1e7, 2e5).converged
+
+
+def test_complex_heights_and_text_or_boolean_numbers_are_refused() -> None:
+    with pytest.raises(InvalidInputError, match=r"heights must be real numbers, got complex values"):
+        roadtex.contact(SEGMENTS[0] + 1e-9j, DX, 1e7, 2e5)
+    with pytest.raises(InvalidInputError, match=r"heights must be real numbers"):
+        roadtex.Profile.from_heights(SEGMENTS[0].astype(complex), DX)
+    for dx in ("1e-4", True):
+        with pytest.raises(InvalidInputError, match=rf"dx must be a number, got {dx!r}"):
+            roadtex.contact(SEGMENTS[0], dx, 1e7, 2e5)
+
