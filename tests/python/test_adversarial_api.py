@@ -77,3 +77,25 @@ def test_complex_heights_and_text_or_boolean_numbers_are_refused() -> None:
         with pytest.raises(InvalidInputError, match=rf"dx must be a number, got {dx!r}"):
             roadtex.contact(SEGMENTS[0], dx, 1e7, 2e5)
 
+
+def test_level_differences_refuse_other_band_kinds_and_other_sampling() -> None:
+    signal = SEGMENTS[:1]
+    third = roadtex.band_levels(signal, DX, kind="third_octave", periodic=True).to_frame()
+    octave = roadtex.band_levels(signal, DX, kind="octave", periodic=True).to_frame()
+    coarse = roadtex.band_levels(signal[:, ::2], 2 * DX, kind="third_octave", periodic=True).to_frame()
+    assert roadtex.level_differences(third, third)["level_difference_db"].drop_nans().abs().max() == 0.0
+    with pytest.raises(InvalidInputError, match=r"other band edges \(octave against third-octave"):
+        roadtex.level_differences(octave, third)
+    with pytest.raises(InvalidInputError, match=r"other numbers of DFT lines"):
+        roadtex.level_differences(third, coarse)
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-300])
+def test_band_levels_of_extreme_magnitudes_are_refused_not_inf_or_nan(scale: float) -> None:
+    signal = SEGMENTS[:1] / np.abs(SEGMENTS[:1]).max() * scale
+    with pytest.raises(InvalidInputError, match=r"values reach at most .* would (overflow|underflow) float64"):
+        roadtex.band_levels(signal, DX, reference=scale)
+    # within the range, a scaled signal with a scaled reference gives the same levels
+    levels = roadtex.band_levels(SEGMENTS[:1], DX, reference=1e-6).levels
+    scaled = roadtex.band_levels(SEGMENTS[:1] * 1e100, DX, reference=1e-6 * 1e100).levels
+    assert np.allclose(levels, scaled, equal_nan=True, atol=1e-9)
