@@ -3,13 +3,15 @@ names, hostile run ids, other encodings, job-wide options refused before any wor
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from roadtex.archive import build_manifest
-from roadtex.errors import RoadtexWarning
+from roadtex.archive import ProcessingOptions, build_manifest, job, process
+from roadtex.cli import main
+from roadtex.errors import MissingDependencyError, RoadtexWarning
 
 DX = 5e-4
 
@@ -30,3 +32,38 @@ def test_generated_run_ids_are_made_unique_and_said(tmp_path: Path) -> None:
         table = build_manifest(folder)
     ids = dict(zip((Path(p).relative_to(folder.resolve()).as_posix() for p in table["path"]), table["run_id"]))
     assert ids == {"a/x.csv": "x", "a_x.csv": "a_x", "b/a/x.csv": "b_a_x", "x.csv": "x-2"}
+
+
+@pytest.fixture
+def one_run(tmp_path: Path) -> Path:
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text(f"path,run_id\n{write_csv(tmp_path / 'r.csv')},r\n")
+    return manifest
+
+
+@pytest.mark.parametrize("flags, said", [
+    (["--threads", "0"], "threads must be at least 1"),
+    (["--tol", "2"], "tol must be below 1"),
+    (["--input-dx", "0"], "--input-dx"),
+    (["--height-unit", "furlong"], "unknown unit 'furlong'"),
+    (["--segment-length", "1e-9"], "segment_length = 1e-09 m is shorter than 0.01 m"),
+])
+def test_job_wide_option_errors_are_refused_before_any_work(one_run: Path, tmp_path: Path, flags: list[str], said: str,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["process", str(one_run), "--out", str(out), "--quiet", *flags]) == 2
+    assert said in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_the_dask_engine_without_dask_is_refused_before_the_pilot(one_run: Path, tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a))
+
+    def no_pilot(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the pilot ran before the engine was checked")
+
+    monkeypatch.setattr(job, "plan_job", no_pilot)
+    with pytest.raises(MissingDependencyError, match="needs dask.distributed"):
+        process(one_run, tmp_path / "out", ProcessingOptions(segment_length=0.1), engine="dask")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib.util
 import logging
 import os
 import platform
@@ -57,7 +58,7 @@ from roadtex.archive.store import (
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
+from roadtex.errors import ErrorBudgetWarning, InvalidInputError, MissingDependencyError, ResultsNotFoundError
 from roadtex.profiles.plausibility import judged_once
 
 log = logging.getLogger("roadtex.archive")
@@ -207,13 +208,15 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         ArchiveWriteError: the output folder cannot be written.
     """
     options = options or ProcessingOptions()
-    threads = thread_count(threads)   # a job-wide option: refused before any work, not by every run
+    threads = thread_count(threads)   # job-wide options: refused before any work, not by every run
+    if engine not in ("local", "dask"):
+        raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
+    if engine == "dask" and importlib.util.find_spec("distributed") is None:
+        raise MissingDependencyError("engine='dask' needs dask.distributed: pip install 'roadtex[dask]'")
     table = read_manifest(manifest, extra_columns=extra_columns)
     out = Path(out_dir)
     check_writable(out)
     remove_stale_temporaries(out)
-    if engine not in ("local", "dask"):
-        raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
