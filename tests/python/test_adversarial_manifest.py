@@ -7,11 +7,12 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import polars as pl
 import pytest
 
-from roadtex.archive import ProcessingOptions, build_manifest, job, process
+from roadtex.archive import ProcessingOptions, build_manifest, job, process, read_manifest
 from roadtex.cli import main
-from roadtex.errors import MissingDependencyError, RoadtexWarning
+from roadtex.errors import ManifestError, MissingDependencyError, RoadtexWarning
 
 DX = 5e-4
 
@@ -67,3 +68,27 @@ def test_the_dask_engine_without_dask_is_refused_before_the_pilot(one_run: Path,
     monkeypatch.setattr(job, "plan_job", no_pilot)
     with pytest.raises(MissingDependencyError, match="needs dask.distributed"):
         process(one_run, tmp_path / "out", ProcessingOptions(segment_length=0.1), engine="dask")
+
+
+@pytest.mark.parametrize("run_id, said", [
+    ("r" * 300, r"run id 'rrrr.*'\.\.\. is 300 bytes long; at most 200"),
+    ("bad\x00id", r"run id 'bad\\x00id' contains a control character"),
+])
+def test_run_ids_that_cannot_name_a_folder_are_refused_at_the_manifest_naming_the_row(tmp_path: Path, run_id: str,
+                                                                                     said: str) -> None:
+    good = write_csv(tmp_path / "good.csv")
+    rows = pl.DataFrame({"path": [str(good), str(write_csv(tmp_path / "other.csv", 1))], "run_id": ["good", run_id]})
+    with pytest.raises(ManifestError, match=r"data row 2 .*column 'run_id'.*" + said):
+        read_manifest(rows)
+
+
+def test_a_utf16_manifest_is_read_and_one_with_nul_bytes_refused(tmp_path: Path) -> None:
+    path = write_csv(tmp_path / "r.csv")
+    text = f"path,run_id,speed_kmh\n{path},r,80\n"
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_bytes(text.encode("utf-16"))   # with its byte-order mark, as Excel's "Unicode text"
+    table = read_manifest(manifest)
+    assert table["run_id"].to_list() == ["r"] and table["speed_kmh"].to_list() == [80.0]
+    manifest.write_bytes(text.encode("utf-16-le"))   # no byte-order mark
+    with pytest.raises(ManifestError, match=r"contains NUL bytes, so it is not UTF-8 text"):
+        read_manifest(manifest)

@@ -19,6 +19,8 @@ from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
+#: The longest run id (UTF-8 bytes): it names the run's output folder (file systems: 255 bytes a name).
+MAX_RUN_ID_BYTES = 200
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
@@ -87,6 +89,8 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                 table = pl.read_parquet(manifest_path)
             else:
                 table = read_text_manifest(manifest_path)
+        except ManifestError:
+            raise
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
@@ -164,6 +168,13 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                 "a run id left empty is the file name without suffix); give each run a unique run_id")
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
+        if any(ord(c) < 32 or ord(c) == 127 for c in rid):
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} contains a control character (a NUL "
+                                "byte, a tab or a line break): it cannot name an output folder")
+        if len(rid.encode("utf-8")) > MAX_RUN_ID_BYTES:
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:40]!r}... is {len(rid.encode('utf-8'))} bytes "
+                                f"long; at most {MAX_RUN_ID_BYTES} (it names the run's output folder, and file systems "
+                                "allow 255 bytes a name)")
         seen[rid] = index
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
 
@@ -174,6 +185,15 @@ def read_text_manifest(path: Path) -> pl.DataFrame:
     comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
     point: every number is then read as written."""
     raw = path.read_bytes()
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):   # UTF-16 with its byte-order mark (Excel's "Unicode text")
+        try:
+            raw = raw.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ManifestError(f"manifest {path}: starts as UTF-16 but does not decode as such ({exc.reason} at byte "
+                                f"{exc.start}); save it as UTF-8 CSV") from None
+    elif b"\x00" in raw[:4096]:
+        raise ManifestError(f"manifest {path}: contains NUL bytes, so it is not UTF-8 text (UTF-16 without a "
+                            "byte-order mark, or not a text file); save it as UTF-8 CSV")
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]
     lines = raw.split(b"\n", 2)
