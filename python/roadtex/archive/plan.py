@@ -153,8 +153,8 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
 
 def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
-    """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
-    texture in metres, with their profiles. A sampled run that is not is recorded in ``unread``
+    """Up to ``count`` runs, spread evenly over ``runs``, that can be read, are plausible road
+    texture in metres and hold at least one segment, with their profiles. A sampled run that is not is recorded in ``unread``
     (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
     stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
     picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
@@ -173,6 +173,9 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
                 unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
                 continue
             reason = implausible_texture(profile.heights, profile.dx, str(run["path"]))
+            if reason is None and profile.length < options.segment_length:
+                # no segment to pilot on (the run fails on its own): a neighbour stands in for it
+                reason = (f"{profile.length:.4g} m long, shorter than one {options.segment_length:g} m segment")
             if reason is not None:
                 unread[str(run["run_id"])] = reason
                 continue
