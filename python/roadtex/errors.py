@@ -49,6 +49,11 @@ class ArchiveWriteError(RoadtexError, OSError):
     """Output could not be written (unwritable folder, full disk): the job stops, nothing is corrupted."""
 
 
+class OutputInUseError(ArchiveWriteError):
+    """Another job is writing the output folder (its lock is held): the message names the holder
+    (pid, host, start time)."""
+
+
 class RunFailure(RoadtexError):
     """One run of a bulk job failed at ``stage`` (read, condition, mpd, segment, spectra, solve)
     because of ``cause``; the job records it in errors.parquet and goes on."""
@@ -103,8 +108,8 @@ class ConditioningWarning(RoadtexWarning):
 
 __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "DamagedResultsError",
-    "MissingDependencyError", "RunFailure",
+    "ClappError", "InternalError", "ArchiveWriteError", "OutputInUseError", "ResultsNotFoundError",
+    "DamagedResultsError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",
 ]

@@ -5,7 +5,12 @@ jobs on one folder, job-wide options checked before any work."""
 from __future__ import annotations
 
 import errno
+import os
 import shutil
+import signal
+import socket
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -15,9 +20,9 @@ from polars.testing import assert_frame_equal
 
 from roadtex.archive import ProcessingOptions, process
 from roadtex.archive.plan import plan_job
-from roadtex.archive.store import write_atomically
+from roadtex.archive.store import job_lock, write_atomically
 from roadtex.cli import main
-from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning
+from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, OutputInUseError
 from roadtex.profiles import write_profile
 from roadtex.profiles.pavements import synthetic_pavement
 
@@ -121,3 +126,28 @@ def test_the_plan_does_not_depend_on_the_manifests_order(tmp_path: Path) -> None
     assert forward.groups == backward.groups
     assert (forward.dx, forward.tol, forward.worst_error_db) == (backward.dx, backward.tol, backward.worst_error_db)
     assert forward.band_error_db == backward.band_error_db
+
+
+def test_a_second_job_on_a_folder_is_refused_naming_the_first(finished, tmp_path: Path) -> None:
+    out = copy_of(finished, tmp_path)
+    with job_lock(out):
+        with pytest.raises(OutputInUseError, match=rf"in use by another roadtex job \(pid {os.getpid()} on "
+                                                   rf"{socket.gethostname()}, started 20\d\d-"):
+            process(finished[0], out, OPTIONS, quiet=True, threads=1)
+    assert process(finished[0], out, OPTIONS, quiet=True, threads=1).skipped == 2   # released: the folder is free
+
+
+def test_the_lock_of_a_killed_job_is_taken_over(finished, tmp_path: Path) -> None:
+    out = copy_of(finished, tmp_path)
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from pathlib import Path; "
+                               "from roadtex.archive.store import job_lock\n"
+                               f"with job_lock(Path({str(out)!r})):\n    print('held', flush=True); time.sleep(60)"],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        with pytest.raises(OutputInUseError, match=rf"pid {holder.pid} "):
+            process(finished[0], out, OPTIONS, quiet=True, threads=1)
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    assert process(finished[0], out, OPTIONS, quiet=True, threads=1).skipped == 2

@@ -49,6 +49,7 @@ from roadtex.archive.store import (
     damaged_outputs,
     file_sha256,
     file_size,
+    job_lock,
     read_status,
     remove_stale_temporaries,
     run_fingerprint,
@@ -216,6 +217,15 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     table = read_manifest(manifest, extra_columns=extra_columns)
     out = Path(out_dir)
     check_writable(out)
+    with job_lock(out):   # one job a folder: a second would remove the first one's files mid-write
+        return process_locked(table, out, options, engine=engine, scheduler=scheduler, workers=workers,
+                              threads=threads, quiet=quiet, force=force, retry_failed=retry_failed)
+
+
+def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *, engine: Engine,
+                   scheduler: str | None, workers: int, threads: int | None, quiet: bool, force: bool,
+                   retry_failed: bool) -> ProcessSummary:
+    """:func:`process` once its manifest and options are checked and the output folder's lock is held."""
     remove_stale_temporaries(out)
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]

@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
 import shutil
+import socket
+import time
 import uuid
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from roadtex.archive.schemas import METADATA_COLUMNS
-from roadtex.errors import ArchiveWriteError
+from roadtex.errors import ArchiveWriteError, OutputInUseError
 
 #: The file whose presence marks a run as done (renamed in last).
 STATUS_FILE = "status.json"
@@ -108,6 +112,46 @@ def check_writable(out: Path) -> None:
         probe.unlink()
     except OSError as exc:
         raise write_error(exc.errno, f"output folder {out} is not writable: {exc.strerror or exc}") from exc
+
+
+#: The output folder's lock file: held (flock) by the job writing the folder, naming it.
+LOCK_FILE = ".roadtex.lock"
+
+
+@contextlib.contextmanager
+def job_lock(out: Path) -> Iterator[None]:
+    """Holds ``out``'s lock for the duration of a job: a second job on the folder is refused,
+    naming the holder (pid, host, start time). The lock is the kernel's (``flock``), released
+    when its holder ends however it ends, so a job killed (kill -9) leaves none: the next takes
+    the folder over.
+
+    Raises:
+        OutputInUseError: another job holds the folder.
+    """
+    path = out / LOCK_FILE
+    try:
+        handle = open(path, "a+", encoding="utf-8")
+    except OSError as exc:
+        raise write_error(exc.errno, f"cannot lock output folder {out}: {exc.strerror or exc}") from exc
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read(500).strip() or "an unnamed process"
+            raise OutputInUseError(f"output folder {out} is in use by another roadtex job ({holder}); wait for it "
+                                   "to finish, or give this job another --out") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"pid {os.getpid()} on {socket.gethostname()}, started "
+                      f"{time.strftime('%Y-%m-%d %H:%M:%S %Z', time.localtime())}")
+        handle.flush()
+        try:
+            yield
+        finally:
+            handle.seek(0)
+            handle.truncate()
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def remove_stale_temporaries(out: Path) -> None:
