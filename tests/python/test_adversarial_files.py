@@ -75,3 +75,14 @@ def test_a_dx_a_million_times_too_fine_is_refused_before_allocating() -> None:
     assert profile.resample(DX / 100).heights.size == 120_000   # finer, within reason, still works
     with pytest.raises(InvalidInputError, match=r"dx = 1e-12 m is finer than 1e-06 m"):
         ProcessingOptions(dx=1e-12)
+
+
+def test_messages_quote_a_file_only_in_a_short_escaped_excerpt(tmp_path: Path) -> None:
+    secret = "s3cr3t-token-" + "x" * 60
+    bad = tmp_path / "notes.csv"
+    bad.write_text(f"user,key\nalice,{secret}\nbob,{secret}\n")
+    with pytest.raises(ProfileFormatError) as caught:
+        read_profile(bad)
+    message = str(caught.value)
+    assert message.startswith("notes.csv: ") and "line 2 is not a row of 2 numbers: 'alice,s3cr3t-token-xxxxx'..." in message
+    assert secret not in message and secret[:30] not in message

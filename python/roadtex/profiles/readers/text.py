@@ -86,11 +86,28 @@ def split_column_name(column: str) -> tuple[str, str | None]:
     return base, unit
 
 
+#: The most characters of a file's text an error message quotes (a message must not carry a file's
+#: contents: a manifest row pointing at /etc/passwd copied its lines into errors.parquet and the log).
+EXCERPT_CHARACTERS = 24
+
+
+def excerpt(text: str, limit: int = EXCERPT_CHARACTERS) -> str:
+    """A short, escaped quotation of a file's ``text`` for a message: its first ``limit`` characters
+    as a Python literal (control characters escaped), '...' when there is more."""
+    return repr(text[:limit]) + ("..." if len(text) > limit else "")
+
+
+def quoted_fields(message: str) -> str:
+    """A parser's message with the file's text it quotes (polars puts it in backticks) cut to an
+    :func:`excerpt`, and the message itself to one short line."""
+    return re.sub(r"`([^`]*)`", lambda match: excerpt(match.group(1), 12), message)[:200]
+
+
 def column_list(names: list[str], most: int = 12) -> str:
-    """The column names for a message: all of them, or the first few and how many there are."""
-    if len(names) <= most:
-        return str(names)
-    return f"{names[:most - 2]} ... ({len(names)} columns)"
+    """The column names for a message: all of them, or the first few and how many there are (each
+    an :func:`excerpt`: a "header" may be a line of any file)."""
+    shown = "[" + ", ".join(excerpt(str(name)) for name in names[:most if len(names) <= most else most - 2]) + "]"
+    return shown if len(names) <= most else f"{shown} ... ({len(names)} columns)"
 
 
 def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str, ...], what: str,
@@ -219,11 +236,11 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
         # polars raises ComputeError/NoDataError with a long hint (keep its first line), and on some
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
         # BaseException, so it is named here to be reported as what it is, a bad file.
-        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        message = quoted_fields(str(exc).strip().splitlines()[0]) if str(exc).strip() else type(exc).__name__
         where = first_bad_line(data, separator, decimal_comma)
         if where is not None:
             index, line = where
-            message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {line[:80]!r} ({message})"
+            message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {excerpt(line)}"
         raise ProfileFormatError(f"{name}: cannot read the numbers after line {first_line}: {message}") from None
     missing = np.column_stack([frame.get_column(c).is_null().to_numpy() for c in frame.columns]) \
         if frame.height else np.zeros((0, n_columns), dtype=bool)
