@@ -4,6 +4,7 @@ is that run's recorded failure and the other runs go on."""
 
 from __future__ import annotations
 
+import time
 import zipfile
 from pathlib import Path
 
@@ -86,3 +87,13 @@ def test_messages_quote_a_file_only_in_a_short_escaped_excerpt(tmp_path: Path) -
     message = str(caught.value)
     assert message.startswith("notes.csv: ") and "line 2 is not a row of 2 numbers: 'alice,s3cr3t-token-xxxxx'..." in message
     assert secret not in message and secret[:30] not in message
+
+
+def test_a_huge_file_of_nul_bytes_is_refused_from_its_head(tmp_path: Path) -> None:
+    bad = tmp_path / "zeros.csv"
+    with open(bad, "wb") as handle:
+        handle.truncate(2 * 1024**3)   # 2 GiB of NUL bytes (sparse: nothing written)
+    started = time.perf_counter()
+    with pytest.raises(ProfileFormatError, match=r"zeros\.csv looks like binary data, not a text profile"):
+        read_profile(bad)
+    assert time.perf_counter() - started < 0.5   # it read 2 GiB before (5.9 s, 2.2 GB of memory)

@@ -26,6 +26,21 @@ HEIGHT_NAMES = ("height", "z", "elevation", "profile", "texture", "h", "y", "rel
 ReadResult = tuple[np.ndarray, np.ndarray, dict, list[str], object]
 
 
+def refuse_binary(head: bytes, name: str) -> None:
+    """Refuses a text file whose first bytes ``head`` hold NUL bytes without a UTF-16 byte-order
+    mark (binary data, or UTF-16 without its mark), saying which: called on the head before the
+    whole file is read (a 2 GB file of NULs took 5.9 s and 2.2 GB to be refused)."""
+    if b"\x00" not in head or head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return
+    if head[1::2].count(0) > 0.4 * len(head[1::2]) and head[0::2].count(0) < 0.4 * len(head[0::2]):
+        hint = "UTF-16 (little-endian) without a byte-order mark: pass encoding='utf-16-le'"
+    elif head[0::2].count(0) > 0.4 * len(head[0::2]) and head[1::2].count(0) < 0.4 * len(head[1::2]):
+        hint = "UTF-16 (big-endian) without a byte-order mark: pass encoding='utf-16-be'"
+    else:
+        hint = "binary data, not a text profile"
+    raise ProfileFormatError(f"{name} looks like {hint}")
+
+
 def decode_text(raw: bytes, encoding: str | None, name: str) -> tuple[bytes, str]:
     """Returns the content as UTF-8 bytes with '\\n' line ends, and the encoding used."""
     if not raw or raw.isspace():
@@ -44,15 +59,7 @@ def decode_text(raw: bytes, encoding: str | None, name: str) -> tuple[bytes, str
     elif raw.startswith(b"\xef\xbb\xbf"):
         data, used = raw[3:], "utf-8"
     else:
-        head = raw[:4096]
-        if b"\x00" in head:
-            if head[1::2].count(0) > 0.4 * len(head[1::2]):
-                hint = "UTF-16 (little-endian) without a byte-order mark: pass encoding='utf-16-le'"
-            elif head[0::2].count(0) > 0.4 * len(head[0::2]):
-                hint = "UTF-16 (big-endian) without a byte-order mark: pass encoding='utf-16-be'"
-            else:
-                hint = "binary data, not a text profile"
-            raise ProfileFormatError(f"{name} looks like {hint}")
+        refuse_binary(raw[:4096], name)
         try:
             if not raw.isascii():
                 raw.decode("utf-8")
