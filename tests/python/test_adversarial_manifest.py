@@ -11,6 +11,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, build_manifest, job, process, read_manifest
+from roadtex.archive.manifest import unlisted_files
 from roadtex.cli import main
 from roadtex.errors import ManifestError, MissingDependencyError, RoadtexWarning
 
@@ -92,3 +93,15 @@ def test_a_utf16_manifest_is_read_and_one_with_nul_bytes_refused(tmp_path: Path)
     manifest.write_bytes(text.encode("utf-16-le"))   # no byte-order mark
     with pytest.raises(ManifestError, match=r"contains NUL bytes, so it is not UTF-8 text"):
         read_manifest(manifest)
+
+
+def test_a_symlink_loop_is_reported_not_left_out_silently(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "survey"
+    write_csv(folder / "good.csv")
+    (folder / "loop.csv").symlink_to(folder / "loop.csv")
+    (folder / "gone.csv").symlink_to(folder / "deleted.csv")
+    notes = unlisted_files(folder)
+    assert notes == ["gone.csv: a symbolic link that points to nothing",
+                     "loop.csv: a symbolic link that loops (it leads back to itself)"]
+    assert main(["manifest", str(folder), "--out", str(tmp_path / "manifest.csv")]) == 0
+    assert "loop.csv: a symbolic link that loops" in capsys.readouterr().err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import errno
 import io
 import os
 import warnings
@@ -33,11 +34,22 @@ def candidate_files(root: Path, recursive: bool) -> list[Path]:
 
 def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) -> list[str]:
     """The files of ``folder`` that :func:`build_manifest` does not list (a suffix other than
-    :data:`PROFILE_SUFFIXES`; hidden files and ``manifest*`` files aside), each as "name: why", so
-    that no profile is left out without a word (a gzipped export, a spreadsheet)."""
+    :data:`PROFILE_SUFFIXES`; hidden files and ``manifest*`` files aside; symbolic links that loop
+    or point to nothing), each as "name: why", so that no profile is left out without a word (a
+    gzipped export, a spreadsheet)."""
     root = Path(folder)
     listed = ", ".join(sorted(PROFILE_SUFFIXES))
     notes = []
+    for path in sorted(root.rglob("*") if recursive else root.glob("*")):
+        if path.is_symlink() and not path.exists():   # is_file() is False for it: it would go unsaid
+            try:
+                path.resolve(strict=True)
+                why = "cannot be followed"
+            except RuntimeError:
+                why = "loops (it leads back to itself)"
+            except OSError as exc:
+                why = "loops (it leads back to itself)" if exc.errno == errno.ELOOP else "points to nothing"
+            notes.append(f"{path.relative_to(root).as_posix()}: a symbolic link that {why}")
     for path in candidate_files(root, recursive):
         if path.suffix.lower() in PROFILE_SUFFIXES:
             continue
