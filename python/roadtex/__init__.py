@@ -33,6 +33,7 @@ from roadtex.errors import (
                             InvalidInputError,
                             ManifestError,
                             MissingDependencyError,
+                            OutputInUseError,
                             ProfileFormatError,
                             ResultsNotFoundError,
                             RoadtexError,
@@ -76,7 +77,8 @@ from roadtex.surfaces import Surface, read_surface, synthetic_surface
 __all__ = [
     "__version__", "errors",
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "DamagedResultsError", "MissingDependencyError",
+    "ClappError", "InternalError", "ArchiveWriteError", "OutputInUseError", "ResultsNotFoundError", "DamagedResultsError",
+    "MissingDependencyError",
     "RunFailure", "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",
     "ContactBatch", "ContactResult", "contact", "contact_many", "von_meier", "ClappResult", "clapp",
