@@ -4,7 +4,9 @@ is that run's recorded failure and the other runs go on."""
 
 from __future__ import annotations
 
+import re
 import time
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -97,3 +99,19 @@ def test_a_huge_file_of_nul_bytes_is_refused_from_its_head(tmp_path: Path) -> No
     with pytest.raises(ProfileFormatError, match=r"zeros\.csv looks like binary data, not a text profile"):
         read_profile(bad)
     assert time.perf_counter() - started < 0.5   # it read 2 GiB before (5.9 s, 2.2 GB of memory)
+
+
+def test_one_corrupt_distance_is_not_taken_for_terabytes_of_missing_rows(tmp_path: Path) -> None:
+    # found by fuzzing: a regular file whose last distance is 10^11 steps on was read as a file
+    # with rows missing, and listing them asked numpy for 0.8 TB
+    heights = synthetic_pavement("dense_asphalt", 0.3, DX, seed=2).heights
+    distances = DX * np.arange(heights.size)
+    distances[-1] = 5e7
+    bad = tmp_path / "jump.csv"
+    bad.write_text("distance_m,height_m\n" + "".join(f"{x:.10g},{z:.10g}\n" for x, z in zip(distances, heights)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        profile = read_profile(bad)
+    assert profile.positions[-1] == 5e7   # read as the uneven file it is, nothing allocated for the jump
+    said = re.search(r"(\d+) rows missing", profile.history[0])
+    assert said is None or int(said.group(1)) <= heights.size

@@ -97,6 +97,10 @@ def gap_mask(steps: np.ndarray, dx: float) -> np.ndarray:
     multiple = steps[gaps] / dx
     if np.any(np.abs(multiple - np.rint(multiple)) > GAP_MULTIPLE_TOLERANCE) or np.any(np.rint(multiple) < 2):
         return none
+    if float(np.rint(multiple).sum()) > steps.size:
+        # more rows "missing" than the file has: a wrong distance (one corrupt value 10^12 steps
+        # on), not missing rows; listing them would allocate terabytes (found by fuzzing)
+        return none
     regular = steps[~gaps]
     middle = float(np.median(regular))
     if middle <= 0 or float(np.median(np.abs(regular - middle))) > GAP_REGULARITY * middle:
