@@ -105,3 +105,14 @@ def test_a_symlink_loop_is_reported_not_left_out_silently(tmp_path: Path, capsys
                      "loop.csv: a symbolic link that loops (it leads back to itself)"]
     assert main(["manifest", str(folder), "--out", str(tmp_path / "manifest.csv")]) == 0
     assert "loop.csv: a symbolic link that loops" in capsys.readouterr().err
+
+
+def test_unknown_columns_are_listed_briefly(tmp_path: Path) -> None:
+    # found by fuzzing: a manifest line duplicated into its header listed every cell back
+    path = write_csv(tmp_path / "r.csv")
+    header = ",".join(["path", *(f"column_{i}_" + "x" * 50 for i in range(40))])
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text(header + "\n" + ",".join([str(path), *["1"] * 40]) + "\n")
+    with pytest.raises(ManifestError, match=r"unknown column\(s\) 'column_0_xxxxxxxxxxxxxxx'\.\.\., .* and 32 more") as caught:
+        read_manifest(manifest)
+    assert len(str(caught.value)) < 800

@@ -16,6 +16,7 @@ from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PR
 from roadtex.errors import ImplausibleTextureWarning, ManifestError, RoadtexWarning
 from roadtex.profiles.plausibility import implausible_texture, judged_once
 from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
@@ -117,8 +118,9 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     unknown = [c for c in table.columns
                if c not in known and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
     if unknown:
+        shown = ", ".join(excerpt(name) for name in unknown[:8]) + (f" and {len(unknown) - 8} more" if len(unknown) > 8 else "")
         raise ManifestError(
-            f"{where} has unknown column(s) {', '.join(map(repr, unknown))}{column_hints(unknown, known)}; known: "
+            f"{where} has unknown column(s) {shown}{column_hints(unknown[:8], known)}; known: "
             f"{', '.join(MANIFEST_COLUMNS)}; reader options {', '.join(READER_COLUMNS)}; "
             f"and {NOISE_PREFIX}<band> for noise levels (dB); "
             "in Python, pass extra_columns to carry others along")
