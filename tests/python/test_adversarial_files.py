@@ -115,3 +115,25 @@ def test_one_corrupt_distance_is_not_taken_for_terabytes_of_missing_rows(tmp_pat
     assert profile.positions[-1] == 5e7   # read as the uneven file it is, nothing allocated for the jump
     said = re.search(r"(\d+) rows missing", profile.history[0])
     assert said is None or int(said.group(1)) <= heights.size
+
+
+def test_memory_error_while_reading_a_file_is_that_runs_failure(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from roadtex.archive import compute
+
+    good = write_profile(synthetic_pavement("dense_asphalt", 0.6, DX, seed=0), tmp_path / "good.parquet")
+    huge = write_profile(synthetic_pavement("dense_asphalt", 0.6, DX, seed=1), tmp_path / "huge.parquet")
+    real = compute.read_profile
+
+    def reading(path, **kwargs):
+        if Path(path).name == "huge.parquet":
+            raise MemoryError("Unable to allocate 7.28 TiB")
+        return real(path, **kwargs)
+
+    monkeypatch.setattr(compute, "read_profile", reading)
+    rows = pl.DataFrame({"path": [str(huge), str(good)], "run_id": ["huge", "good"]})
+    options = ProcessingOptions(youngs_moduli=(1e7,), dx=DX, segment_length=0.128, tol=1e-6, error_budget_db=None)
+    summary = process(rows, tmp_path / "out", options, quiet=True, threads=1)
+    assert (summary.processed, summary.failed) == (1, 1)
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["run_id"].to_list() == ["huge"] and errors["stage"].to_list() == ["read"]
+    assert "needs more memory than is free" in errors["message"][0]
