@@ -17,8 +17,8 @@ import polars as pl
 import pytest
 from matplotlib import image
 
+from edited_results import as_written_by_a_job
 from roadtex.archive import ProcessingOptions, process
-from roadtex.archive.store import checksums
 from roadtex.demo import write_synthetic_archive
 from roadtex.report import FIGURES, SEED_FIGURES, build_report, draw_figures, octave_table
 from roadtex.report.data import load_results, modulus_label, plain, pyplot
@@ -333,14 +333,6 @@ def test_failed_runs_are_listed(report, results: Path) -> None:
     assert failures["rows"][0][1] == "read" and failures["rows"][0][4].endswith("broken_001.csv")
     assert "1 run(s) failed" in report.html.read_text(encoding="utf-8")
     assert "broken_001" not in column(tables["runs"], "run_id")
-
-
-def as_written_by_a_job(folder: Path) -> None:
-    """Records the checksums of ``folder``'s tables, edited by a test to stand for what another job
-    wrote, in its parameters.json (the report refuses tables that differ from those recorded)."""
-    parameters = json.loads((folder / "parameters.json").read_text())
-    parameters["checksums"] = checksums(folder, list(parameters["checksums"]))
-    (folder / "parameters.json").write_text(json.dumps(parameters))
 
 
 @pytest.fixture(scope="module")
