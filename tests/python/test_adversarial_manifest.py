@@ -116,3 +116,13 @@ def test_unknown_columns_are_listed_briefly(tmp_path: Path) -> None:
     with pytest.raises(ManifestError, match=r"unknown column\(s\) 'column_0_xxxxxxxxxxxxxxx'\.\.\., .* and 32 more") as caught:
         read_manifest(manifest)
     assert len(str(caught.value)) < 800
+
+
+@pytest.mark.parametrize("where", ["/dev/zero", "folder"])
+def test_a_path_that_is_not_a_regular_file_is_refused_at_the_manifest(tmp_path: Path, where: str) -> None:
+    # found looking for the next hang: /dev/zero passed the manifest check, then hashing it for the
+    # run's fingerprint never ended
+    path = where if where.startswith("/") else str(tmp_path)
+    rows = pl.DataFrame({"path": [str(write_csv(tmp_path / "good.csv")), path], "run_id": ["good", "odd"]})
+    with pytest.raises(ManifestError, match=r"data row 2 .*column 'path'.* is not a regular file"):
+        read_manifest(rows)
