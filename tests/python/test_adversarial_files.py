@@ -137,3 +137,10 @@ def test_memory_error_while_reading_a_file_is_that_runs_failure(tmp_path: Path, 
     errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
     assert errors["run_id"].to_list() == ["huge"] and errors["stage"].to_list() == ["read"]
     assert "needs more memory than is free" in errors["message"][0]
+
+
+def test_a_high_pass_far_longer_than_the_profile_is_refused_not_a_linalg_error() -> None:
+    profile = synthetic_pavement("dense_asphalt", 0.6, DX, seed=0)
+    with pytest.raises(InvalidInputError, match=r"cutoff_wavelength 1e\+09 m is more than 1e\+07 times dx"):
+        profile.highpass(1e9)
+    assert np.isfinite(profile.highpass(1e3).heights).all()   # long, but within reach

@@ -37,6 +37,8 @@ from roadtex._checks import finite_number, positive
 from roadtex.errors import ConditioningWarning, InvalidInputError
 from roadtex.profiles.trend import line_fits
 
+#: The longest high-pass cut-off, in samples: scipy's Butterworth start-up is singular near 1e9.
+MAX_HIGHPASS_STEPS = 1e7
 #: The most samples :func:`resample` makes per reading (a grid 1000 times finer than the data):
 #: finer adds only interpolated points, and far finer is a unit mistake that would exhaust memory.
 MAX_RESAMPLE_FACTOR = 1000
@@ -371,6 +373,11 @@ def zero_phase_filter(profile: Profile, cutoff_wavelength: float, kind: Literal[
     require_grid(profile, f"{kind}pass")
     if wavelength <= 2.0 * profile.dx:
         raise InvalidInputError(f"cutoff_wavelength {wavelength:.3g} m must exceed twice dx ({2 * profile.dx:.3g} m)")
+    if kind == "high" and wavelength > MAX_HIGHPASS_STEPS * profile.dx:
+        # scipy's filter start-up solve is singular there (LinAlgError at 2e9 steps, found probing)
+        raise InvalidInputError(f"cutoff_wavelength {wavelength:.3g} m is more than {MAX_HIGHPASS_STEPS:.0e} times dx "
+                                f"({profile.dx:.3g} m): a high-pass that long is numerically singular, and on a "
+                                f"{profile.length:.3g} m profile it removes no more than a line (detrend does that)")
     sections = signal.butter(2, 2.0 * profile.dx / wavelength, btype="lowpass" if kind == "low" else "highpass",
                              output="sos")
     if kind == "low":
