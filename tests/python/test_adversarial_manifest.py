@@ -13,7 +13,7 @@ import pytest
 from roadtex.archive import ProcessingOptions, build_manifest, job, process, read_manifest
 from roadtex.archive.manifest import unlisted_files
 from roadtex.cli import main
-from roadtex.errors import ManifestError, MissingDependencyError, RoadtexWarning
+from roadtex.errors import InvalidInputError, ManifestError, MissingDependencyError, RoadtexWarning
 
 DX = 5e-4
 
@@ -126,3 +126,10 @@ def test_a_path_that_is_not_a_regular_file_is_refused_at_the_manifest(tmp_path: 
     rows = pl.DataFrame({"path": [str(write_csv(tmp_path / "good.csv")), path], "run_id": ["good", "odd"]})
     with pytest.raises(ManifestError, match=r"data row 2 .*column 'path'.* is not a regular file"):
         read_manifest(rows)
+
+
+def test_a_local_dask_cluster_of_no_workers_is_refused_not_waited_on(one_run: Path, tmp_path: Path) -> None:
+    # found probing the command line: --engine dask --workers 0 waited forever for a worker
+    with pytest.raises(InvalidInputError, match=r"workers must be at least 1"):
+        process(one_run, tmp_path / "out", ProcessingOptions(segment_length=0.1), engine="dask", workers=0)
+    assert not (tmp_path / "out").exists()

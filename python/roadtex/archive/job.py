@@ -17,7 +17,7 @@ from typing import Any, Literal, Sequence
 import numpy as np
 import polars as pl
 
-from roadtex._checks import thread_count
+from roadtex._checks import positive_int, thread_count
 from roadtex._core import __version__
 from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
@@ -214,6 +214,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
     if engine == "dask" and importlib.util.find_spec("distributed") is None:
         raise MissingDependencyError("engine='dask' needs dask.distributed: pip install 'roadtex[dask]'")
+    if engine == "dask" and scheduler is None:
+        positive_int(workers, "workers")   # a local cluster of 0 workers waits forever for one
     table = read_manifest(manifest, extra_columns=extra_columns)
     out = Path(out_dir)
     check_writable(out)
