@@ -98,11 +98,36 @@ pub fn solve_many(
     in_pool(threads, run)
 }
 
-/// Runs `run` on rayon's global pool (`threads` None) or on a pool of `threads` threads: the
-/// batch functions' `threads` argument.
+/// The process that loaded the module (set by the Python binding's module init).
+static LOADED_IN: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+
+/// Records the loading process, so that a forked child can tell it is one (see [`fork_safe`]).
+pub fn note_loading_process() {
+    LOADED_IN.get_or_init(std::process::id);
+}
+
+/// Runs `run` on rayon's global pool, or, in a child forked after the module was loaded, on a
+/// fresh pool of as many threads: fork copies the global pool's state but not its threads, so
+/// work handed to it in the child waited forever (multiprocessing's default on Linux after a
+/// warm-up call in the parent).
+pub(crate) fn fork_safe<T: Send>(run: impl FnOnce() -> T + Send) -> T {
+    let forked = LOADED_IN.get().is_some_and(|pid| *pid != std::process::id());
+    if !forked {
+        return run();
+    }
+    // a pool that cannot start (no threads left) is reported as the core's failure, never a hang
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .build()
+        .expect("cannot start a thread pool in a process forked after roadtex was loaded");
+    pool.install(run)
+}
+
+/// Runs `run` on rayon's global pool (`threads` None; a fresh one in a forked child, see
+/// [`fork_safe`]) or on a pool of `threads` threads: the batch functions' `threads` argument.
 pub(crate) fn in_pool<T: Send>(threads: Option<usize>, run: impl FnOnce() -> Result<T> + Send) -> Result<T> {
     match threads {
-        None => run(),
+        None => fork_safe(run),
         Some(0) => invalid("threads must be at least 1"),
         Some(t) => rayon::ThreadPoolBuilder::new()
             .num_threads(t)

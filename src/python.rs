@@ -11,7 +11,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
-use crate::batch::{solve_many as solve_many_core, Segments};
+use crate::batch::{fork_safe, solve_many as solve_many_core, Segments};
 use crate::clapp::{clapp as clapp_core, ClappOptions};
 use crate::envelope::von_meier as von_meier_core;
 use crate::error::{invalid, ContactError, Result};
@@ -113,8 +113,10 @@ fn solve<'py>(
         let heights = heights.as_slice()?.to_vec();
         let solution = py
             .detach(|| {
-                crate::solver::validate_problem(&heights, dx, mean_pressure)?;
-                ContactSolver::new(heights.len(), dx, options)?.solve(&heights, material, mean_pressure)
+                fork_safe(|| {
+                    crate::solver::validate_problem(&heights, dx, mean_pressure)?;
+                    ContactSolver::new(heights.len(), dx, options)?.solve(&heights, material, mean_pressure)
+                })
             })
             .map_err(|e| to_py_err(py, e))?;
         Ok((
@@ -214,7 +216,9 @@ fn solve_surface<'py>(
         let (ny, nx) = view.dim();
         let heights: Vec<f64> = view.iter().copied().collect();
         let grid = Grid { ny, nx, dx, dy };
-        let solution = py.detach(|| solve_surface_core(&heights, grid, material, mean_pressure, options)).map_err(|e| to_py_err(py, e))?;
+        let solution = py
+            .detach(|| fork_safe(|| solve_surface_core(&heights, grid, material, mean_pressure, options)))
+            .map_err(|e| to_py_err(py, e))?;
         let as2 = |v: Vec<f64>| Array2::from_shape_vec((ny, nx), v).expect("one value per element").into_pyarray(py);
         Ok((as2(solution.pressure), as2(solution.envelope), solution.iterations, solution.residual, solution.converged))
     })
@@ -415,7 +419,8 @@ fn clapp<'py>(
         let material = Material::new(youngs_modulus, poisson).map_err(|e| to_py_err(py, e))?;
         let heights = heights.as_slice()?.to_vec();
         let options = ClappOptions { sub_profile, overlap, wrap };
-        let solution = py.detach(|| clapp_core(&heights, dx, material, mean_pressure, options)).map_err(|e| to_py_err(py, e))?;
+        let solution =
+            py.detach(|| fork_safe(|| clapp_core(&heights, dx, material, mean_pressure, options))).map_err(|e| to_py_err(py, e))?;
         Ok((solution.pressure.into_pyarray(py), solution.envelope.into_pyarray(py), solution.sub_profiles, solution.sweeps))
     })
 }
@@ -434,6 +439,7 @@ fn panic_for_tests(py: Python<'_>, message: String) -> PyResult<()> {
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    crate::batch::note_loading_process();
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve_many, m)?)?;
     m.add_function(wrap_pyfunction!(solve_surface, m)?)?;

@@ -61,8 +61,33 @@ def warn_if_implausible_rubber(youngs_moduli: object, mean_pressure: float) -> N
     warn_if_implausible_parameter(float(mean_pressure), "mean_pressure", SOLVER_PLAUSIBLE_PRESSURE)
 
 
+def real_values(values: object, name: str, *, masked: str = "refuse") -> object:
+    """``values`` ready for a float64 conversion that loses nothing silently: complex values are
+    refused (numpy would drop the imaginary part with only a warning), and a ``numpy.ma`` masked
+    array's masked values either refused (``masked="refuse"``: a solver has no drop-outs) or made
+    NaN drop-outs (``masked="dropouts"``: a profile or surface), never converted as if valid (a
+    masked -0.85 m drop-out code would be solved as road)."""
+    try:
+        complex_values = np.iscomplexobj(values)
+    except (TypeError, ValueError):   # ragged or not numeric: the conversion says so
+        return values
+    if complex_values:
+        raise InvalidInputError(f"{name} must be real numbers, got complex values (dtype "
+                                f"{np.asarray(values).dtype}); pass .real if the imaginary part is meant to go")
+    if isinstance(values, np.ma.MaskedArray):
+        hidden = int(np.ma.count_masked(values))
+        if hidden and masked == "refuse":
+            raise InvalidInputError(f"{name} is a masked array with {hidden} masked value(s): the solvers take no "
+                                    "drop-outs; fill them first (e.g. Profile(heights.filled(np.nan), ...)"
+                                    ".fill_dropouts()), or pass the data without them")
+        return np.ma.filled(values.astype(np.float64), np.nan)
+    return values
+
+
 def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
-    """A contiguous float64 array of exactly ``ndim`` dimensions (values are not checked here)."""
+    """A contiguous float64 array of exactly ``ndim`` dimensions (values are not checked here;
+    complex and masked values are refused, see :func:`real_values`)."""
+    values = real_values(values, name)
     try:
         array = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -75,7 +100,10 @@ def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
 
 
 def to_float(value: object, name: str) -> float:
-    """A float, NaN and inf included: for arguments the Rust core checks (and names) itself."""
+    """A float, NaN and inf included: for arguments the Rust core checks (and names) itself.
+    Text and booleans are refused: float("1e-4") and float(True) would hide a caller's mistake."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise InvalidInputError(f"{name} must be a number, got {value!r}")
     try:
         return float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -119,6 +147,41 @@ def whole_number(value: object, name: str, minimum: int) -> int:
 
 def positive_int(value: object, name: str) -> int:
     return whole_number(value, name, 1)
+
+
+#: The most worker threads a call may ask for is this many times the usable cores (with a floor of
+#: :data:`MIN_THREAD_LIMIT`): the solves are CPU-bound, so threads beyond the cores only contend
+#: for them (10,000 threads on 4 x 1,024 points took 97 s against 0.003 s on 2, at a load of 1,500);
+#: 4x leaves room for cores a container under-reports.
+THREADS_PER_CORE_LIMIT = 4
+#: The thread limit's floor: a fixed count a script or test asks for (8, 16, 64) stays valid on a
+#: small machine, at a bounded cost (each rayon thread a kernel task and a stack reservation).
+MIN_THREAD_LIMIT = 64
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the platform has one)."""
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def thread_count(value: object, name: str = "threads") -> int | None:
+    """None (all cores), or a whole number from 1 to the thread limit (see
+    :data:`THREADS_PER_CORE_LIMIT`); refused above it, naming the limit and the cores."""
+    if value is None:
+        return None
+    threads = positive_int(value, name)
+    cores = usable_cores()
+    limit = max(MIN_THREAD_LIMIT, THREADS_PER_CORE_LIMIT * cores)
+    if threads > limit:
+        raise InvalidInputError(f"{name} = {threads} is more than {limit} ({THREADS_PER_CORE_LIMIT} per usable core, "
+                                f"{cores} here, and at least {MIN_THREAD_LIMIT}): the solves are CPU-bound, so "
+                                "threads beyond the cores only slow them (None uses every core)")
+    return threads
 
 
 def poisson_ratio(value: object, name: str = "poisson") -> float:

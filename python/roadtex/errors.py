@@ -49,6 +49,11 @@ class ArchiveWriteError(RoadtexError, OSError):
     """Output could not be written (unwritable folder, full disk): the job stops, nothing is corrupted."""
 
 
+class OutputInUseError(ArchiveWriteError):
+    """Another job is writing the output folder (its lock is held): the message names the holder
+    (pid, host, start time)."""
+
+
 class RunFailure(RoadtexError):
     """One run of a bulk job failed at ``stage`` (read, condition, mpd, segment, spectra, solve)
     because of ``cause``; the job records it in errors.parquet and goes on."""
@@ -61,6 +66,12 @@ class RunFailure(RoadtexError):
 class ResultsNotFoundError(RoadtexError, FileNotFoundError):
     """A results folder lacks what was asked of it (not processed, or processed without the option
     that writes it)."""
+
+
+class DamagedResultsError(RoadtexError, ValueError):
+    """A job's output file cannot be trusted: it cannot be read, or its bytes differ from the
+    checksum the job recorded when it wrote it (changed or damaged since). The message names the
+    file; processing the manifest again rebuilds it."""
 
 
 class MissingDependencyError(RoadtexError, ImportError):
@@ -103,7 +114,8 @@ class ConditioningWarning(RoadtexWarning):
 
 __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
-    "ClappError", "InternalError", "ArchiveWriteError", "ResultsNotFoundError", "MissingDependencyError", "RunFailure",
+    "ClappError", "InternalError", "ArchiveWriteError", "OutputInUseError", "ResultsNotFoundError",
+    "DamagedResultsError", "MissingDependencyError", "RunFailure",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "CoarseSamplingWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",

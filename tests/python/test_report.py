@@ -16,6 +16,7 @@ import polars as pl
 import pytest
 from matplotlib import image
 
+from edited_results import as_written_by_a_job
 from report_pages import WellFormed, column, parse, text_without_images
 from roadtex.archive import ProcessingOptions, process
 from roadtex.demo import write_synthetic_archive
@@ -302,6 +303,7 @@ def altered(results: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
            & (pl.col("youngs_modulus") == band["youngs_modulus"]))
     bands.with_columns(pl.when(hit).then(None).otherwise(pl.col("pressure_level")).alias("pressure_level")) \
         .write_parquet(copy / "bands.parquet")
+    as_written_by_a_job(copy)
     return {"folder": copy, "report": build_report(copy), "first": first, "band": band}
 
 
@@ -377,6 +379,7 @@ def test_unreported_bands_and_null_levels(results: Path, altered: dict, tmp_path
     copy = tmp_path / "results"
     shutil.copytree(altered["folder"], copy, ignore=shutil.ignore_patterns("report"))
     every.filter(~octave).write_parquet(copy / "bands.parquet")
+    as_written_by_a_job(copy)
     without = octave_table(load_results(copy))
     key = ["run_id", "youngs_modulus", "band"]
     joined = with_null.join(without, on=key, suffix="_without")

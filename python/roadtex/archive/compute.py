@@ -46,11 +46,17 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
 
     A panic inside any extension module (polars, pyo3-based libraries: a PanicException, which is a
     BaseException) is that run's failure too, so one bad file never stops the job. What must stop
-    the job still does: a failure to write output, running out of memory, Ctrl-C, interpreter exit.
+    the job still does: a failure to write output, running out of memory (except while reading the
+    file: what a file holds is that run's failure), Ctrl-C, interpreter exit.
     """
     try:
         return action()
-    except (ArchiveWriteError, KeyboardInterrupt, SystemExit, GeneratorExit, MemoryError):
+    except MemoryError as exc:
+        if stage != "read":
+            raise
+        # what a file holds (or claims to) is that run's failure: one file never stops the job
+        raise RunFailure(stage, MemoryError(f"reading the file needs more memory than is free ({exc})")) from exc
+    except (ArchiveWriteError, KeyboardInterrupt, SystemExit, GeneratorExit):
         raise
     except BaseException as exc:  # noqa: BLE001 - see the docstring: panics are BaseExceptions
         raise RunFailure(stage, exc) from exc

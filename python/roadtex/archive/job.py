@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib.util
+import logging
 import os
 import platform
 import time
@@ -15,6 +17,7 @@ from typing import Any, Literal, Sequence
 import numpy as np
 import polars as pl
 
+from roadtex._checks import positive_int, thread_count
 from roadtex._core import __version__
 from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
@@ -42,26 +45,31 @@ from roadtex.archive.schemas import (
 from roadtex.archive.store import (
     STATUS_FILE,
     check_writable,
+    checksums,
+    damaged_outputs,
     file_sha256,
     file_size,
+    job_lock,
     read_status,
     remove_stale_temporaries,
     run_fingerprint,
     write_atomically,
+    write_error,
     write_json,
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
 from roadtex.errors import (
-    ArchiveWriteError,
     CoarseSamplingWarning,
     ErrorBudgetWarning,
     ImplausibleTextureWarning,
     InvalidInputError,
+    MissingDependencyError,
     ResultsNotFoundError,
 )
 from roadtex.profiles.plausibility import judged_once
 
+log = logging.getLogger("roadtex.archive")
 Engine = Literal["local", "dask"]
 #: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
 COMPARISON_TABLES = {"von_meier": VON_MEIER_SCHEMA, "penetration": PENETRATION_SCHEMA}
@@ -129,12 +137,17 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
     previous = read_status(run_dir)
     if (not force and previous is not None and previous.get("fingerprint") == fingerprint
             and not (retry_failed and previous.get("state") == "error")):
-        return {**previous, "skipped": True}
+        damaged = damaged_outputs(run_dir, previous)
+        if not damaged:
+            return {**previous, "skipped": True}
+        # what the run wrote was changed or damaged since: computed again, never trusted
+        log.warning("%s: %s do(es) not match the checksums recorded; recomputing the run",
+                    run["run_id"], ", ".join(damaged))
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / STATUS_FILE).unlink(missing_ok=True)  # from here until the new status lands, the run is not done
     except OSError as exc:
-        raise ArchiveWriteError(exc.errno, f"cannot write to {run_dir}: {exc.strerror or exc}") from exc
+        raise write_error(exc.errno, f"cannot write to {run_dir}: {exc.strerror or exc}") from exc
     started = time.perf_counter()
     status: dict[str, Any] = {"run_id": run["run_id"], "path": run["path"], "fingerprint": fingerprint,
                               "options_fingerprint": options_fingerprint, "input_sha256": input_sha256}
@@ -152,12 +165,14 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         status.update(state="error", stage=failure.stage, error_type=type(failure.cause).__name__,
                       message=message if name in message else f"{name}: {message}", kilometres=0.0)
     else:
+        written = []
         for name, table in tables.items():
             if not isinstance(table, pl.DataFrame):   # None, or a note for the status
                 continue
             write_atomically(run_dir / f"{name}.parquet", lambda p, t=table: t.write_parquet(p, statistics=True))
+            written.append(f"{name}.parquet")
         status.update(state="ok", kilometres=float(tables["run"]["length"][0]) / 1e3,
-                      seconds=time.perf_counter() - started)
+                      seconds=time.perf_counter() - started, checksums=checksums(run_dir, written))
         # a surface run whose areal pilot could not run; a run processed although implausible
         # (allow_implausible), or sampled more coarsely than texture (the job warns after the runs)
         for note in ("pilot_note", *PLAUSIBILITY_NOTES):
@@ -204,12 +219,26 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         ArchiveWriteError: the output folder cannot be written.
     """
     options = options or ProcessingOptions()
+    threads = thread_count(threads)   # job-wide options: refused before any work, not by every run
+    if engine not in ("local", "dask"):
+        raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
+    if engine == "dask" and importlib.util.find_spec("distributed") is None:
+        raise MissingDependencyError("engine='dask' needs dask.distributed: pip install 'roadtex[dask]'")
+    if engine == "dask" and scheduler is None:
+        positive_int(workers, "workers")   # a local cluster of 0 workers waits forever for one
     table = read_manifest(manifest, extra_columns=extra_columns)
     out = Path(out_dir)
     check_writable(out)
+    with job_lock(out):   # one job a folder: a second would remove the first one's files mid-write
+        return process_locked(table, out, options, engine=engine, scheduler=scheduler, workers=workers,
+                              threads=threads, quiet=quiet, force=force, retry_failed=retry_failed)
+
+
+def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *, engine: Engine,
+                   scheduler: str | None, workers: int, threads: int | None, quiet: bool, force: bool,
+                   retry_failed: bool) -> ProcessSummary:
+    """:func:`process` once its manifest and options are checked and the output folder's lock is held."""
     remove_stale_temporaries(out)
-    if engine not in ("local", "dask"):
-        raise InvalidInputError(f"engine must be 'local' or 'dask', got {engine!r}")
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
@@ -368,6 +397,8 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         "surface_pilot_notes": pilot_notes,
         "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
         "versions": software_versions(), "runs": manifest.height,
+        # verified by the report before it draws anything (a table damaged since is refused)
+        "checksums": checksums(out, [path.name for path in written.values()]),
     })
     written["parameters"] = out / "parameters.json"
     if options.keep_profiles:

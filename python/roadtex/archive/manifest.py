@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import errno
 import io
 import os
 import warnings
@@ -12,13 +13,16 @@ from typing import Any, Sequence
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
-from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError
+from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError, RoadtexWarning
 from roadtex.profiles.plausibility import coarse_sampling, implausible_texture, judged_once, stated_distance_unit
 from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
+#: The longest run id (UTF-8 bytes): it names the run's output folder (file systems: 255 bytes a name).
+MAX_RUN_ID_BYTES = 200
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
@@ -31,11 +35,22 @@ def candidate_files(root: Path, recursive: bool) -> list[Path]:
 
 def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) -> list[str]:
     """The files of ``folder`` that :func:`build_manifest` does not list (a suffix other than
-    :data:`PROFILE_SUFFIXES`; hidden files and ``manifest*`` files aside), each as "name: why", so
-    that no profile is left out without a word (a gzipped export, a spreadsheet)."""
+    :data:`PROFILE_SUFFIXES`; hidden files and ``manifest*`` files aside; symbolic links that loop
+    or point to nothing), each as "name: why", so that no profile is left out without a word (a
+    gzipped export, a spreadsheet)."""
     root = Path(folder)
     listed = ", ".join(sorted(PROFILE_SUFFIXES))
     notes = []
+    for path in sorted(root.rglob("*") if recursive else root.glob("*")):
+        if path.is_symlink() and not path.exists():   # is_file() is False for it: it would go unsaid
+            try:
+                path.resolve(strict=True)
+                why = "cannot be followed"
+            except RuntimeError:
+                why = "loops (it leads back to itself)"
+            except OSError as exc:
+                why = "loops (it leads back to itself)" if exc.errno == errno.ELOOP else "points to nothing"
+            notes.append(f"{path.relative_to(root).as_posix()}: a symbolic link that {why}")
     for path in candidate_files(root, recursive):
         if path.suffix.lower() in PROFILE_SUFFIXES:
             continue
@@ -87,6 +102,8 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                 table = pl.read_parquet(manifest_path)
             else:
                 table = read_text_manifest(manifest_path)
+        except ManifestError:
+            raise
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
@@ -101,8 +118,9 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     unknown = [c for c in table.columns
                if c not in known and not c.startswith(NOISE_PREFIX) and c not in extra_columns]
     if unknown:
+        shown = ", ".join(excerpt(name) for name in unknown[:8]) + (f" and {len(unknown) - 8} more" if len(unknown) > 8 else "")
         raise ManifestError(
-            f"{where} has unknown column(s) {', '.join(map(repr, unknown))}{column_hints(unknown, known)}; known: "
+            f"{where} has unknown column(s) {shown}{column_hints(unknown[:8], known)}; known: "
             f"{', '.join(MANIFEST_COLUMNS)}; reader options {', '.join(READER_COLUMNS)}; "
             f"and {NOISE_PREFIX}<band> for noise levels (dB); "
             "in Python, pass extra_columns to carry others along")
@@ -156,6 +174,11 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                          "to the manifest's folder, or absolute)")
         raise ManifestError(f"{cell(missing[0], 'path')}: no file {paths[missing[0]]} "
                             f"({len(missing)} file(s) listed in the manifest do not exist){hint}")
+    irregular = [i for i, p in enumerate(paths) if not Path(p).is_file()]
+    if irregular:
+        # a device (/dev/zero) or a pipe never ends: hashing it for the run's fingerprint hung the job
+        raise ManifestError(f"{cell(irregular[0], 'path')}: {paths[irregular[0]]} is not a regular file (a folder, "
+                            f"a device or a pipe; {len(irregular)} such path(s) in all): a run must be a profile file")
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
     seen: dict[str, int] = {}
     for index, rid in enumerate(run_ids):
@@ -164,6 +187,13 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                 "a run id left empty is the file name without suffix); give each run a unique run_id")
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
+        if any(ord(c) < 32 or ord(c) == 127 for c in rid):
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} contains a control character (a NUL "
+                                "byte, a tab or a line break): it cannot name an output folder")
+        if len(rid.encode("utf-8")) > MAX_RUN_ID_BYTES:
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:40]!r}... is {len(rid.encode('utf-8'))} bytes "
+                                f"long; at most {MAX_RUN_ID_BYTES} (it names the run's output folder, and file systems "
+                                "allow 255 bytes a name)")
         seen[rid] = index
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
 
@@ -174,6 +204,15 @@ def read_text_manifest(path: Path) -> pl.DataFrame:
     comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
     point: every number is then read as written."""
     raw = path.read_bytes()
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):   # UTF-16 with its byte-order mark (Excel's "Unicode text")
+        try:
+            raw = raw.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ManifestError(f"manifest {path}: starts as UTF-16 but does not decode as such ({exc.reason} at byte "
+                                f"{exc.start}); save it as UTF-8 CSV") from None
+    elif b"\x00" in raw[:4096]:
+        raise ManifestError(f"manifest {path}: contains NUL bytes, so it is not UTF-8 text (UTF-16 without a "
+                            "byte-order mark, or not a text file); save it as UTF-8 CSV")
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]
     lines = raw.split(b"\n", 2)
@@ -281,12 +320,26 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata[name]
         rows.append(row)
+    renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
+               if row["run_id"] != path.stem]
+    if renamed:
+        warnings.warn(f"{len(renamed)} file(s) share a name with another file of the folder, so their run ids are "
+                      f"made from their paths: {'; '.join(renamed[:5])}{' ...' if len(renamed) > 5 else ''}",
+                      RoadtexWarning, stacklevel=2)
     table = pl.DataFrame(rows, infer_schema_length=None)
     return read_manifest(table, base_dir=root)
 
 
 def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
+    """The file's name without suffix; if an earlier file (in sorted order) took it, its path in
+    the folder joined by '_'; if that is taken too (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with
+    the first free suffix ``-2``, ``-3``, ... (deterministic: the files are listed sorted)."""
     taken = {r["run_id"] for r in rows}
     if path.stem not in taken:
         return path.stem
-    return "_".join(path.relative_to(root).with_suffix("").parts)
+    joined = "_".join(path.relative_to(root).with_suffix("").parts)
+    candidate, number = joined, 1
+    while candidate in taken:
+        number += 1
+        candidate = f"{joined}-{number}"
+    return candidate

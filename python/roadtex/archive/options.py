@@ -23,10 +23,31 @@ from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
 from roadtex.errors import InvalidInputError
 from roadtex.models.grid import check_interpolant, check_refine
 from roadtex.profiles.readers import READ_OPTIONS
+from roadtex.profiles.units import unit_factor
 from roadtex.spectra.bands import check_band_kind
 
+#: The finest job interval accepted (m): a laser profilometer's spot is tens of micrometres, and
+#: a run of metres at 1e-12 m would need terabytes (a unit slip, refused before any work).
+MIN_JOB_DX = 1e-6
+#: The shortest segment accepted (m): the shortest texture band the job reports is a few mm long.
+MIN_SEGMENT_LENGTH = 0.01
 #: Solver tolerance without an error budget (relative residual).
 DEFAULT_TOL = 1e-6
+
+
+def check_reader_defaults(defaults: dict[str, object]) -> None:
+    """The job-wide reader options whose values can be checked without a file (units, ``dx`` in m,
+    the decimal mark): a bad one is refused before any work rather than failing every run."""
+    for name in ("distance_unit", "height_unit"):
+        if defaults.get(name) is not None:
+            unit = defaults[name]
+            if not isinstance(unit, str):
+                raise InvalidInputError(f"reader_defaults {name} must be a unit name (m, mm, um, ...), got {unit!r}")
+            unit_factor(unit, f"reader_defaults {name} (--{name.replace('_', '-')})")
+    if defaults.get("dx") is not None:
+        positive(defaults["dx"], "reader_defaults dx (--input-dx)", "m")
+    if defaults.get("decimal") is not None and defaults["decimal"] not in (".", ","):
+        raise InvalidInputError(f"reader_defaults decimal must be '.' or ',', got {defaults['decimal']!r}")
 
 
 @dataclass(frozen=True)
@@ -123,14 +144,25 @@ class ProcessingOptions:
         object.__setattr__(self, "youngs_moduli", moduli)
         object.__setattr__(self, "mean_pressure", positive(self.mean_pressure, "mean_pressure", "Pa"))
         object.__setattr__(self, "segment_length", positive(self.segment_length, "segment_length", "m"))
+        if self.segment_length < MIN_SEGMENT_LENGTH:
+            raise InvalidInputError(f"segment_length = {self.segment_length:g} m is shorter than {MIN_SEGMENT_LENGTH:g} m: "
+                                    "no segment could hold a texture wavelength the job reports (is it in the wrong "
+                                    "unit? it is in metres, e.g. 0.5)")
         if self.tol is not None:
             object.__setattr__(self, "tol", positive(self.tol, "tol", "relative residual"))
+            if self.tol >= 1.0:
+                raise InvalidInputError(f"tol must be below 1 (a relative residual, e.g. 1e-6), got {self.tol!r}: "
+                                        "a residual of 1 or more is no solution")
         if self.error_budget_db is not None:
             object.__setattr__(self, "error_budget_db", positive(self.error_budget_db, "error_budget_db", "dB"))
         object.__setattr__(self, "poisson", poisson_ratio(self.poisson))
         object.__setattr__(self, "max_iterations", positive_int(self.max_iterations, "max_iterations"))
         if self.dx is not None:
             object.__setattr__(self, "dx", positive(self.dx, "dx", "m"))
+            if self.dx < MIN_JOB_DX:
+                raise InvalidInputError(f"dx = {self.dx:g} m is finer than {MIN_JOB_DX:g} m (1 um), finer than any "
+                                        "texture profilometer samples: is it in the wrong unit? dx is in metres "
+                                        "(0.5 mm is 0.5e-3)")
         if self.refine is not None:
             object.__setattr__(self, "refine", check_refine(self.refine))
         check_interpolant(self.interpolant)
@@ -151,6 +183,7 @@ class ProcessingOptions:
         if unknown:
             raise InvalidInputError(f"reader_defaults has unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
         object.__setattr__(self, "reader_defaults", {k: v for k, v in sorted(self.reader_defaults.items()) if v is not None})
+        check_reader_defaults(self.reader_defaults)
         for modulus in moduli:
             warn_if_implausible_parameter(modulus, "youngs_moduli", PLAUSIBLE_MODULUS)
         warn_if_implausible_parameter(self.mean_pressure, "mean_pressure", PLAUSIBLE_PRESSURE)

@@ -170,8 +170,9 @@ def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
 
 def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
              unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
-    """Up to ``count`` runs, spread evenly over ``runs``, that can be read and are plausible road
-    texture in metres (or any, with ``options.allow_implausible``), with their profiles. A sampled run that is not is recorded in ``unread``
+    """Up to ``count`` runs, spread evenly over ``runs``, that can be read, are plausible road
+    texture in metres (or any, with ``options.allow_implausible``) and hold at least one segment,
+    with their profiles. A sampled run that is not is recorded in ``unread``
     (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
     stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
     picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
@@ -191,7 +192,12 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
                 continue
             reason = implausible_texture(profile.heights, profile.dx, str(run["path"]),
                                          interval_stated=stated_distance_unit(profile.metadata) is not None)
-            if reason is not None and not options.allow_implausible:   # else solved as read, as the run is
+            if options.allow_implausible:   # solved as read, as the run is
+                reason = None
+            if reason is None and profile.length < options.segment_length:
+                # no segment to pilot on (the run fails on its own): a neighbour stands in for it
+                reason = (f"{profile.length:.4g} m long, shorter than one {options.segment_length:g} m segment")
+            if reason is not None:
                 unread[str(run["run_id"])] = reason
                 continue
             read.append((run, profile))
@@ -220,6 +226,9 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         The plan, and the pilots' study rows (one per group, setting and band; empty without a
         budget) for pilot.parquet and the report's speed-against-error figure.
     """
+    # the pilots sample runs by position: in a stable order, so that the same runs listed in another
+    # order give the same plan (32 runs reversed gave worst errors of 0.381 against 0.415 dB)
+    runs = sorted(runs, key=lambda run: (str(run["run_id"]), str(run["path"])))
     if options.error_budget_db is None:
         return plan_without_budget(runs, options), pl.DataFrame()
     if not runs:   # surface runs only: each has its own pilot, spacings and tol

@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
 import shutil
+import socket
+import time
 import uuid
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from roadtex.archive.schemas import METADATA_COLUMNS
-from roadtex.errors import ArchiveWriteError
+from roadtex.errors import ArchiveWriteError, OutputInUseError
 
 #: The file whose presence marks a run as done (renamed in last).
 STATUS_FILE = "status.json"
@@ -26,6 +30,30 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
     return digest.hexdigest()
 
 
+def checksums(folder: Path, names: list[str]) -> dict[str, str]:
+    """SHA-256 of each named file of ``folder`` just written, recorded so that what the job wrote is
+    verified before it is trusted again (a rerun, the report)."""
+    return {name: file_sha256(folder / name) for name in names}
+
+
+def damaged_outputs(run_dir: Path, status: dict[str, Any]) -> list[str]:
+    """The output files of a finished run (``status`` state "ok") whose bytes no longer match the
+    checksums its status recorded, or are gone; all of them when the status recorded none."""
+    if status.get("state") != "ok":
+        return []
+    recorded = status.get("checksums")
+    if not isinstance(recorded, dict) or not recorded:
+        return ["(no checksums recorded)"]
+    damaged = []
+    for name, digest in recorded.items():
+        try:
+            if file_sha256(run_dir / name) != digest:
+                damaged.append(name)
+        except OSError:
+            damaged.append(name)
+    return damaged
+
+
 def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
@@ -36,10 +64,20 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     except Exception as exc:
         # polars reports a full disk as its own ComputeError ("... os error 28"), not OSError:
         # any failure to write output is a write failure, and stops the job.
-        temporary.unlink(missing_ok=True)
         code = exc.errno if isinstance(exc, OSError) else None
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise ArchiveWriteError(code, f"cannot write {path}: {reason}") from exc
+        try:
+            temporary.unlink(missing_ok=True)
+        except OSError as cleanup:
+            # a file system turned read-only refuses the cleanup too: the write's error is the one to report
+            reason += f" (and its temporary file {temporary.name} could not be removed: {cleanup.strerror or cleanup})"
+        raise write_error(code, f"cannot write {path}: {reason}") from exc
+
+
+def write_error(code: int | None, message: str) -> ArchiveWriteError:
+    """An ArchiveWriteError with ``code`` as its errno when there is one (OSError's two-argument
+    form prints "[Errno None]" before the message otherwise)."""
+    return ArchiveWriteError(code, message) if code is not None else ArchiveWriteError(message)
 
 
 def write_json(path: Path, payload: dict[str, Any]) -> None:
@@ -73,7 +111,47 @@ def check_writable(out: Path) -> None:
         probe.write_bytes(b"roadtex")
         probe.unlink()
     except OSError as exc:
-        raise ArchiveWriteError(exc.errno, f"output folder {out} is not writable: {exc.strerror or exc}") from exc
+        raise write_error(exc.errno, f"output folder {out} is not writable: {exc.strerror or exc}") from exc
+
+
+#: The output folder's lock file: held (flock) by the job writing the folder, naming it.
+LOCK_FILE = ".roadtex.lock"
+
+
+@contextlib.contextmanager
+def job_lock(out: Path) -> Iterator[None]:
+    """Holds ``out``'s lock for the duration of a job: a second job on the folder is refused,
+    naming the holder (pid, host, start time). The lock is the kernel's (``flock``), released
+    when its holder ends however it ends, so a job killed (kill -9) leaves none: the next takes
+    the folder over.
+
+    Raises:
+        OutputInUseError: another job holds the folder.
+    """
+    path = out / LOCK_FILE
+    try:
+        handle = open(path, "a+", encoding="utf-8")
+    except OSError as exc:
+        raise write_error(exc.errno, f"cannot lock output folder {out}: {exc.strerror or exc}") from exc
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read(500).strip() or "an unnamed process"
+            raise OutputInUseError(f"output folder {out} is in use by another roadtex job ({holder}); wait for it "
+                                   "to finish, or give this job another --out") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"pid {os.getpid()} on {socket.gethostname()}, started "
+                      f"{time.strftime('%Y-%m-%d %H:%M:%S %Z', time.localtime())}")
+        handle.flush()
+        try:
+            yield
+        finally:
+            handle.seek(0)
+            handle.truncate()
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def remove_stale_temporaries(out: Path) -> None:

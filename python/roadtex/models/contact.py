@@ -10,7 +10,7 @@ from typing import Literal, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, to_float, warn_if_implausible_rubber
+from roadtex._checks import as_float_array, moduli_array, positive_int, thread_count, to_float, warn_if_implausible_rubber
 from roadtex.errors import ConvergenceError
 from roadtex.models.results import ContactBatch, ContactResult
 from roadtex.profiles.plausibility import warn_if_implausible_texture
@@ -109,7 +109,8 @@ def contact_many(
     Args:
         segments: 2-D array of heights (m), one segment of N points per row.
         youngs_modulus: one E or a sequence of E values (Pa).
-        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS).
+        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS); at most 4 per
+            usable core or 64, whichever is more (more only contend for the cores).
         warm_start: solve each segment's moduli in the order given, each CG solve starting from
             the previous modulus's solution (its contact set is close): fewer iterations. Results
             then meet ``tol`` as usual but are no longer bitwise those of one-by-one calls (they
@@ -121,7 +122,7 @@ def contact_many(
     """
     heights = as_float_array(segments, "segments", 2)
     moduli = moduli_array(youngs_modulus)
-    threads = None if threads is None else positive_int(threads, "threads")
+    threads = thread_count(threads)
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
     warn_if_implausible_rubber(moduli, p_f)

@@ -14,7 +14,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, to_float, warn_if_implausible_rubber
+from roadtex._checks import as_float_array, moduli_array, positive_int, thread_count, to_float, warn_if_implausible_rubber
 from roadtex.errors import ConvergenceError
 from roadtex.models.contact import Kernel, Method
 from roadtex.profiles.plausibility import warn_if_implausible_texture
@@ -197,7 +197,8 @@ def contact_surface_many(
     Args:
         tiles: 3-D array of heights (m), ``[tile, iy, ix]``, every tile of the same shape.
         youngs_modulus: one E or a sequence of E values (Pa).
-        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS).
+        threads: worker threads; None uses all cores (or RAYON_NUM_THREADS); at most 4 per
+            usable core or 64, whichever is more (more only contend for the cores).
         warm_start: solve each tile's moduli in the order given, each CG solve starting from the
             previous modulus's solution: fewer iterations, results within ``tol`` of cold solves.
         Other arguments: as for :func:`contact_surface`.
@@ -207,7 +208,7 @@ def contact_surface_many(
     """
     heights = as_float_array(tiles, "tiles", 3)
     moduli = moduli_array(youngs_modulus)
-    threads = None if threads is None else positive_int(threads, "threads")
+    threads = thread_count(threads)
     dx_f, dy_f = _spacings(dx, dy)
     p_f, nu_f = to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     if heights.size:

@@ -37,6 +37,12 @@ from roadtex._checks import finite_number, positive
 from roadtex.errors import ConditioningWarning, InvalidInputError
 from roadtex.profiles.trend import line_fits
 
+#: The longest high-pass cut-off, in samples: scipy's Butterworth start-up is singular near 1e9.
+MAX_HIGHPASS_STEPS = 1e7
+#: The most samples :func:`resample` makes per reading (a grid 1000 times finer than the data):
+#: finer adds only interpolated points, and far finer is a unit mistake that would exhaust memory.
+MAX_RESAMPLE_FACTOR = 1000
+
 if TYPE_CHECKING:
     from roadtex.profiles.profile import Profile
 
@@ -92,6 +98,10 @@ def gap_mask(steps: np.ndarray, dx: float) -> np.ndarray:
         return none   # gaps at a steady spacing: the rounding of the distances
     multiple = steps[gaps] / dx
     if np.any(np.abs(multiple - np.rint(multiple)) > GAP_MULTIPLE_TOLERANCE) or np.any(np.rint(multiple) < 2):
+        return none
+    if float(np.rint(multiple).sum()) > steps.size:
+        # more rows "missing" than the file has: a wrong distance (one corrupt value 10^12 steps
+        # on), not missing rows; listing them would allocate terabytes (found by fuzzing)
         return none
     regular = steps[~gaps]
     middle = float(np.median(regular))
@@ -300,7 +310,14 @@ def resample(profile: Profile, dx: float) -> Profile:
     """Resamples to a uniform grid of spacing ``dx`` (m) by interval averaging; documented at :meth:`Profile.resample`."""
     new_dx = positive(dx, "dx")
     left = profile.positions[0] - 0.5 * profile.dx
-    n_bins = max(1, int(math.ceil(profile.length / new_dx - 1e-9)))
+    grid = profile.length / new_dx
+    # checked before allocating: a dx a million times too fine (a unit slip) asked for terabytes
+    if grid > MAX_RESAMPLE_FACTOR * profile.heights.size + 1:
+        raise InvalidInputError(
+            f"dx = {new_dx:g} m would resample {profile.heights.size} readings at {profile.dx:g} m to "
+            f"{grid:.4g} samples, more than {MAX_RESAMPLE_FACTOR} per reading: interpolation adds points, "
+            "not texture (is dx in the wrong unit? it is in metres)")
+    n_bins = max(1, int(math.ceil(grid - 1e-9)))
     scaled = profile.positions - left
     scaled *= 1.0 / new_dx
     scaled += 1e-9
@@ -356,6 +373,11 @@ def zero_phase_filter(profile: Profile, cutoff_wavelength: float, kind: Literal[
     require_grid(profile, f"{kind}pass")
     if wavelength <= 2.0 * profile.dx:
         raise InvalidInputError(f"cutoff_wavelength {wavelength:.3g} m must exceed twice dx ({2 * profile.dx:.3g} m)")
+    if kind == "high" and wavelength > MAX_HIGHPASS_STEPS * profile.dx:
+        # scipy's filter start-up solve is singular there (LinAlgError at 2e9 steps, found probing)
+        raise InvalidInputError(f"cutoff_wavelength {wavelength:.3g} m is more than {MAX_HIGHPASS_STEPS:.0e} times dx "
+                                f"({profile.dx:.3g} m): a high-pass that long is numerically singular, and on a "
+                                f"{profile.length:.3g} m profile it removes no more than a line (detrend does that)")
     sections = signal.butter(2, 2.0 * profile.dx / wavelength, btype="lowpass" if kind == "low" else "highpass",
                              output="sos")
     if kind == "low":

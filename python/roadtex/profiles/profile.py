@@ -16,7 +16,7 @@ from typing import Iterable, Literal
 
 import numpy as np
 
-from roadtex._checks import finite_number, positive
+from roadtex._checks import finite_number, positive, real_values
 from roadtex.errors import InvalidInputError
 from roadtex.profiles import conditioning
 from roadtex.profiles.plausibility import warn_if_implausible_texture
@@ -29,6 +29,7 @@ MAX_MAGNITUDE = 1e9
 
 def as_1d(values: object, name: str) -> np.ndarray:
     """A float64 copy of ``values``, refused unless it is 1-D and numeric."""
+    values = real_values(values, name, masked="dropouts")   # masked values are drop-outs (NaN); complex refused
     try:
         array = np.array(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,7 +11,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from roadtex.errors import InvalidInputError, ResultsNotFoundError
+from roadtex.errors import DamagedResultsError, InvalidInputError, ResultsNotFoundError
 from roadtex.spectra.bands import REFERENCE_PRESSURE, REFERENCE_TEXTURE
 
 MM = 1e3
@@ -151,6 +152,41 @@ def load_results(results_dir: Path) -> Results:
     if missing:
         raise ResultsNotFoundError(f"{results_dir} is not a roadtex results folder: missing {', '.join(missing)} "
                                 "(run `roadtex process MANIFEST --out DIR` first, with this version of roadtex)")
+    verify_checksums(results_dir)
+    try:
+        return read_results(results_dir)
+    except (pl.exceptions.PolarsError, OSError, ValueError) as exc:
+        if isinstance(exc, (ResultsNotFoundError, InvalidInputError)):
+            raise
+        raise DamagedResultsError(f"{results_dir}: a table of the job cannot be read ({type(exc).__name__}: "
+                                  f"{str(exc)[:200]}); process the manifest again to rebuild it") from None
+
+
+def verify_checksums(results_dir: Path) -> None:
+    """Refuses a results folder whose tables differ from the checksums the job recorded in
+    parameters.json when it wrote them (a table damaged or changed since would be drawn as data)."""
+    try:
+        recorded = json.loads((results_dir / "parameters.json").read_text()).get("checksums") or {}
+    except (OSError, ValueError, AttributeError) as exc:
+        raise DamagedResultsError(f"{results_dir}/parameters.json cannot be read: {str(exc)[:200]}") from None
+    for name, digest in recorded.items():
+        if not (results_dir / name).exists():
+            continue   # the tables the report needs were checked above; an optional one is drawn without
+        digester = hashlib.sha256()
+        try:
+            with open(results_dir / name, "rb") as stream:
+                for block in iter(lambda s=stream: s.read(1 << 20), b""):
+                    digester.update(block)
+        except OSError as exc:
+            raise DamagedResultsError(f"{results_dir}/{name} cannot be read: {exc.strerror or exc}") from None
+        if digester.hexdigest() != digest:
+            raise DamagedResultsError(f"{results_dir}/{name} is not the table the job wrote (its checksum differs "
+                                      "from the one in parameters.json: changed or damaged since); process the "
+                                      "manifest again to rebuild it from the runs' files")
+
+
+def read_results(results_dir: Path) -> Results:
+    """The tables of a results folder, read (checked by :func:`load_results`)."""
     segments = pl.read_parquet(results_dir / "segments.parquet")
     if segments.height == 0:
         raise InvalidInputError(f"{results_dir}/segments.parquet has no rows: every run failed, so there is "

@@ -52,6 +52,26 @@ def with_time_frequency(table: pl.DataFrame, speed_kmh: float) -> pl.DataFrame:
 _NOT_KEYS = set(BAND_COLUMNS) | set(FREQUENCY_COLUMNS) | {"mean_square", "level_db"}
 
 
+def check_same_bands(enveloped: pl.DataFrame, original: pl.DataFrame) -> None:
+    """Refuses tables whose bands of one number are not the same bands: an octave table against a
+    third-octave one (other band edges), or signals of other lengths or sampling (other DFT lines
+    in the band). Only the band columns both tables carry are compared."""
+    for column, what in (("lower_wavelength", "band edges (octave against third-octave bands?)"),
+                         ("upper_wavelength", "band edges (octave against third-octave bands?)"),
+                         ("lines", "numbers of DFT lines (signals of other lengths or sampling intervals?)")):
+        if column not in enveloped.columns or column not in original.columns:
+            continue
+        pairs = (enveloped.select("band", pl.col(column).alias("a")).unique()
+                 .join(original.select("band", pl.col(column).alias("b")).unique(), on="band"))
+        differ = pairs.filter((pl.col("a") != pl.col("b")) & ~((pl.col("a") - pl.col("b")).abs()
+                                                              <= 1e-9 * pl.col("a").abs()))
+        if differ.height:
+            band = differ.row(0, named=True)
+            raise InvalidInputError(f"enveloped and original have other {what}: band {band['band']} has "
+                                    f"{column} {band['a']!r} in enveloped and {band['b']!r} in original; compare "
+                                    "levels of the same band kind, computed on signals of the same length and dx")
+
+
 def level_differences(enveloped: pl.DataFrame, original: pl.DataFrame, *, level: str = "level_db",
                       on: Sequence[str] | None = None) -> pl.DataFrame:
     """Enveloped-minus-original level per band (the seed's figure 4.4, bottom).
@@ -79,6 +99,7 @@ def level_differences(enveloped: pl.DataFrame, original: pl.DataFrame, *, level:
     for name, table in (("enveloped", enveloped), ("original", original)):
         if level not in table.columns or "band" not in table.columns:
             raise InvalidInputError(f"{name} must have the columns 'band' and {level!r}, has {table.columns}")
+    check_same_bands(enveloped, original)
     if on is None:
         keys = ["band"] + [c for c in enveloped.columns
                            if c in original.columns and c not in _NOT_KEYS and c != level]

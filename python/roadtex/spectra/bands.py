@@ -60,6 +60,12 @@ BLOCK_VALUES = 1 << 22
 # --------------------------------------------------------------------------------------------------
 
 
+#: Largest and smallest nonzero magnitude a spectrum's signal may reach: their squares, summed over
+#: up to 1e8 points, stay normal float64 numbers (about 1e-308 to 1e308).
+MAX_SIGNAL = 1e140
+MIN_SIGNAL = 1e-140
+
+
 def check_band_kind(kind: object) -> BandKind:
     if kind not in ("third_octave", "octave"):
         raise InvalidInputError(f"kind must be 'third_octave' or 'octave', got {kind!r}")
@@ -81,6 +87,13 @@ def check_signals(values: object, name: str, ndim: int) -> np.ndarray:
         where = f"{name} row {row}" if ndim == 2 else name
         raise InvalidInputError(f"{where} contains a non-finite value ({kind}) at index {index}; "
                          "interpolate drop-outs first")
+    biggest = float(np.max(np.abs(rows)))
+    if biggest > MAX_SIGNAL or 0.0 < biggest < MIN_SIGNAL:
+        raise InvalidInputError(f"{name} reach at most {biggest:.3g} (in the signal's unit): their band powers (squares "
+                                f"summed) would {'overflow' if biggest > MAX_SIGNAL else 'underflow'} float64 and the "
+                                f"levels come out {'inf' if biggest > MAX_SIGNAL else '-inf or NaN'}; give them in a "
+                                f"unit that brings them within {MIN_SIGNAL:g} to {MAX_SIGNAL:g} (and the reference "
+                                "in the same unit)")
     return array
 
 

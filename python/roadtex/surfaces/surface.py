@@ -15,7 +15,7 @@ from typing import Iterable
 
 import numpy as np
 
-from roadtex._checks import finite_number, positive
+from roadtex._checks import finite_number, positive, real_values
 from roadtex.errors import InvalidInputError
 from roadtex.profiles.profile import MAX_MAGNITUDE, Profile, frozen
 from roadtex.surfaces import conditioning
@@ -24,6 +24,7 @@ from roadtex.surfaces.tiles import Tiles, cut_tiles
 
 def as_2d(values: object, name: str) -> np.ndarray:
     """A float64 copy of ``values``, refused unless it is 2-D and numeric."""
+    values = real_values(values, name, masked="dropouts")   # masked values are drop-outs (NaN); complex refused
     try:
         array = np.array(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:

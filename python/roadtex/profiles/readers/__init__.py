@@ -16,7 +16,7 @@ from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
 from roadtex.profiles.readers.npy import read_npy
 from roadtex.profiles.readers.parquet import read_parquet
-from roadtex.profiles.readers.text import decode_text, nominal_dx, sorted_samples
+from roadtex.profiles.readers.text import decode_text, nominal_dx, refuse_binary, sorted_samples
 
 #: A dx given for a file with distances that differs from their interval by more than this share
 #: is ignored, with a warning: the file's distances are kept.
@@ -138,6 +138,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
         positions, heights, metadata, history, dx = read_parquet(file, name, options)
         encoding = None
     else:
+        if options.get("encoding") is None:
+            refuse_binary(file_head(file), name)   # before reading it all
         data, encoding = decode_text(file.read_bytes(), options.get("encoding"), name)  # type: ignore[arg-type]
         reader = read_captif if fmt == "captif" else read_delimited
         positions, heights, metadata, history, dx = reader(data, name, options)

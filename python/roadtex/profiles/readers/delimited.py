@@ -17,6 +17,7 @@ from roadtex.profiles.readers.text import (
     ReadResult,
     check_units_given,
     column_unit,
+    excerpt,
     first_lines,
     parse_table,
     parse_value,
@@ -213,7 +214,7 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         names = first
         body = body[body.find(b"\n") + 1:] if b"\n" in body else b""
         if not body or body.isspace():
-            raise ProfileFormatError(f"{name}: a header line ({separator.join(names)!r}) but no data rows")
+            raise ProfileFormatError(f"{name}: a header line ({excerpt(separator.join(names))}) but no data rows")
     else:
         names = [f"column_{i + 1}" for i in range(len(first))]
         if len(names) > MAX_HEADERLESS_COLUMNS and options.get("height_column") is None:
@@ -227,7 +228,7 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if not data.endswith(b"\n"):
         last = body.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
         if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
-            raise ProfileFormatError(f"{name}: the last line {last[:60].decode('utf-8', 'replace')!r} has fewer than "
+            raise ProfileFormatError(f"{name}: the last line {excerpt(last.decode('utf-8', 'replace'))} has fewer than "
                              f"{n_columns} fields and no line end: the file looks truncated")
     table, absent = parse_table(body, separator, n_columns, name, first_data_line - 1, decimal_comma=decimal == ",")
     # Blank lines (or lines of bare delimiters, ";;") at the end, as spreadsheets leave them, are no rows.

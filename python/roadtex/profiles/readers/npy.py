@@ -19,8 +19,49 @@ def sidecar_path(path: Path) -> Path:
     return path.with_name(path.name + ".json")
 
 
+def npy_header(path: Path, name: str) -> tuple[tuple[int, ...], np.dtype]:
+    """(shape, dtype) a ``.npy`` file's header claims, checked against the bytes the file holds.
+
+    Read before the array so that a damaged or hostile header (a 208-byte file claiming 10^12
+    values) is refused as that file's fault rather than allocated (a MemoryError would stop a job);
+    a zip archive (``numpy.savez`` output saved as ``.npy``) and a header numpy cannot parse are
+    refused with the file's name too.
+    """
+    fmt = np.lib.format
+    try:
+        with open(path, "rb") as handle:
+            start = handle.read(6)
+            if start.startswith(b"PK\x03\x04"):
+                raise ProfileFormatError(f"{name}: a .npz archive (zip, numpy.savez), not a .npy array: load it "
+                                         "with numpy.load and numpy.save the array to read")
+            if start != fmt.MAGIC_PREFIX:
+                raise ProfileFormatError(f"{name}: not a .npy array (it does not start with numpy's magic bytes)")
+            handle.seek(0)
+            version = fmt.read_magic(handle)
+            reader = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+            shape, _, dtype = reader(handle, max_header_size=10_000)
+            data_bytes = path.stat().st_size - handle.tell()
+    except ProfileFormatError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - numpy's header parser raises ValueError, SyntaxError, TokenError...
+        raise ProfileFormatError(f"{name}: not a readable .npy array: damaged header "
+                                 f"({type(exc).__name__}: {str(exc)[:120]!r})") from None
+    count = 1
+    for length in shape:
+        count *= int(length)
+    claimed = count * dtype.itemsize
+    if dtype.kind in "fiu" and claimed > data_bytes:
+        raise ProfileFormatError(f"{name}: damaged .npy: its header claims shape {shape} of {dtype} "
+                                 f"({claimed} bytes) but the file holds {data_bytes} bytes of data")
+    return shape, dtype
+
+
 def load_numeric_npy(path: Path, name: str) -> np.ndarray:
-    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles)."""
+    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles) and its header's
+    shape fits in the file (:func:`npy_header`)."""
+    shape, dtype = npy_header(path, name)
+    if dtype.kind not in "fiu":
+        raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {dtype}")
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
