@@ -119,13 +119,24 @@ def test_unknown_columns_are_listed_briefly(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("where", ["/dev/zero", "folder"])
-def test_a_path_that_is_not_a_regular_file_is_refused_at_the_manifest(tmp_path: Path, where: str) -> None:
+def test_a_path_that_is_not_a_regular_file_is_that_runs_failure_not_a_hang(tmp_path: Path, where: str) -> None:
     # found looking for the next hang: /dev/zero passed the manifest check, then hashing it for the
-    # run's fingerprint never ended
-    path = where if where.startswith("/") else str(tmp_path)
+    # run's fingerprint never ended. It is that run's recorded failure (one bad row never stops a
+    # job), and nothing reads or hashes it.
+    import signal
+
+    path = where if where.startswith("/") else str(tmp_path / "a-folder")
+    if not where.startswith("/"):
+        Path(path).mkdir()
     rows = pl.DataFrame({"path": [str(write_csv(tmp_path / "good.csv")), path], "run_id": ["good", "odd"]})
-    with pytest.raises(ManifestError, match=r"data row 2 .*column 'path'.* is not a regular file"):
-        read_manifest(rows)
+    signal.alarm(60)   # a hang fails the test instead of the suite
+    try:
+        summary = process(rows, tmp_path / "out", ProcessingOptions(segment_length=0.1, error_budget_db=None), quiet=True)
+    finally:
+        signal.alarm(0)
+    assert summary.failed == 1
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["run_id"].to_list() == ["odd"] and "not a regular file" in errors["message"][0]
 
 
 def test_a_local_dask_cluster_of_no_workers_is_refused_not_waited_on(one_run: Path, tmp_path: Path) -> None:

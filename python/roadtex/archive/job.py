@@ -23,7 +23,7 @@ from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import JobPlan, plan_job
+from roadtex.archive.plan import JobPlan, group_key, plan_job
 from roadtex.archive.schemas import (
     BAND_SCHEMA,
     EDGE_EFFECT_SCHEMA,
@@ -133,7 +133,8 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
         input_sha256 = file_sha256(run["path"])
     except OSError as exc:
         input_sha256 = f"unreadable: {exc}"
-    fingerprint = run_fingerprint(options_fingerprint, input_sha256, run)
+    own_grids = [entry for entry in options.group_model_dx if entry[0] == group_key(run)]
+    fingerprint = run_fingerprint(options_fingerprint, input_sha256, run, own_grids)
     previous = read_status(run_dir)
     if (not force and previous is not None and previous.get("fingerprint") == fingerprint
             and not (retry_failed and previous.get("state") == "error")):

@@ -174,11 +174,9 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                          "to the manifest's folder, or absolute)")
         raise ManifestError(f"{cell(missing[0], 'path')}: no file {paths[missing[0]]} "
                             f"({len(missing)} file(s) listed in the manifest do not exist){hint}")
-    irregular = [i for i, p in enumerate(paths) if not Path(p).is_file()]
-    if irregular:
-        # a device (/dev/zero) or a pipe never ends: hashing it for the run's fingerprint hung the job
-        raise ManifestError(f"{cell(irregular[0], 'path')}: {paths[irregular[0]]} is not a regular file (a folder, "
-                            f"a device or a pipe; {len(irregular)} such path(s) in all): a run must be a profile file")
+    # A folder, a device (/dev/zero) or a pipe listed as a run is that run's failure, not the
+    # manifest's: one bad row never stops a job. Nothing reads or hashes such a path (file_head,
+    # file_sha256 refuse it: /dev/zero never ends).
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
     seen: dict[str, int] = {}
     for index, rid in enumerate(run_ids):

@@ -189,6 +189,11 @@ class ProcessingOptions:
         warn_if_implausible_parameter(self.mean_pressure, "mean_pressure", PLAUSIBLE_PRESSURE)
 
     def fingerprint(self) -> str:
-        """SHA-256 of the options and the roadtex version: equal fingerprints give equal results."""
-        payload = json.dumps({"options": dataclasses.asdict(self), "roadtex": __version__}, sort_keys=True)
+        """SHA-256 of the options and the roadtex version: equal fingerprints give equal results.
+
+        ``group_model_dx`` is left out: a run depends only on its own group's model grid, which
+        its run fingerprint holds (:func:`roadtex.archive.store.run_fingerprint`), so a change in
+        one group's pilot does not make every other group's runs stale."""
+        options = {k: v for k, v in dataclasses.asdict(self).items() if k != "group_model_dx"}
+        payload = json.dumps({"options": options, "roadtex": __version__}, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()

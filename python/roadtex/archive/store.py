@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import json
 import os
 import shutil
 import socket
+import sys
 import time
 import uuid
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import IO, Any, Callable, Iterator
 
 from roadtex.archive.schemas import METADATA_COLUMNS
 from roadtex.errors import ArchiveWriteError, OutputInUseError
@@ -22,7 +22,13 @@ STATUS_FILE = "status.json"
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes (detects changed inputs whatever their timestamps)."""
+    """SHA-256 of a file's bytes (detects changed inputs whatever their timestamps).
+
+    Raises:
+        OSError: ``path`` is not a regular file (a folder, a device or a pipe: /dev/zero never ends).
+    """
+    if not Path(path).is_file():
+        raise OSError(f"not a regular file: {path}")
     digest = hashlib.sha256()
     with open(path, "rb") as stream:
         for block in iter(lambda: stream.read(1 << 20), b""):
@@ -91,9 +97,14 @@ def read_status(run_dir: Path) -> dict[str, Any] | None:
         return None
 
 
-def run_fingerprint(options_fingerprint: str, input_sha256: str, run: dict[str, Any]) -> str:
+def run_fingerprint(options_fingerprint: str, input_sha256: str, run: dict[str, Any],
+                    model_grids: list[Any] | tuple[Any, ...] = ()) -> str:
+    """SHA-256 of what a run's results depend on: the options, the input file, the run's metadata
+    and ``model_grids``, the model grids of its own error-budget group (ProcessingOptions.group_model_dx
+    entries of its device and pavement)."""
     metadata = {name: run.get(name) for name in (*METADATA_COLUMNS, "format")}
-    payload = json.dumps([options_fingerprint, input_sha256, metadata], sort_keys=True, default=str)
+    payload = json.dumps([options_fingerprint, input_sha256, metadata, *([list(model_grids)] if model_grids else [])],
+                         sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
@@ -118,10 +129,46 @@ def check_writable(out: Path) -> None:
 LOCK_FILE = ".roadtex.lock"
 
 
+#: Where the Windows lock sits in the lock file: one byte far past the holder's description, so that
+#: a second job can still read who holds the folder (Windows byte locks are mandatory).
+WINDOWS_LOCK_OFFSET = 1 << 20
+
+
+def lock_exclusively(handle: IO[str]) -> None:
+    """The kernel's exclusive lock on ``handle``'s file, without waiting (OSError when held):
+    ``flock`` on POSIX, ``msvcrt.locking`` of one byte on Windows; either is released when its
+    holder ends, however it ends."""
+    if sys.platform == "win32":
+        import msvcrt
+
+        position = handle.tell()
+        handle.seek(WINDOWS_LOCK_OFFSET)
+        try:
+            msvcrt.locking(handle.fileno(), msvcrt.LK_NBLCK, 1)
+        finally:
+            handle.seek(position)
+    else:
+        import fcntl
+
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def unlock(handle: IO[str]) -> None:
+    if sys.platform == "win32":
+        import msvcrt
+
+        handle.seek(WINDOWS_LOCK_OFFSET)
+        msvcrt.locking(handle.fileno(), msvcrt.LK_UNLCK, 1)
+    else:
+        import fcntl
+
+        fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 @contextlib.contextmanager
 def job_lock(out: Path) -> Iterator[None]:
     """Holds ``out``'s lock for the duration of a job: a second job on the folder is refused,
-    naming the holder (pid, host, start time). The lock is the kernel's (``flock``), released
+    naming the holder (pid, host, start time). The lock is the kernel's (:func:`lock_exclusively`), released
     when its holder ends however it ends, so a job killed (kill -9) leaves none: the next takes
     the folder over.
 
@@ -135,7 +182,7 @@ def job_lock(out: Path) -> Iterator[None]:
         raise write_error(exc.errno, f"cannot lock output folder {out}: {exc.strerror or exc}") from exc
     with handle:
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            lock_exclusively(handle)
         except OSError:
             handle.seek(0)
             holder = handle.read(500).strip() or "an unnamed process"
@@ -151,7 +198,7 @@ def job_lock(out: Path) -> Iterator[None]:
         finally:
             handle.seek(0)
             handle.truncate()
-            fcntl.flock(handle, fcntl.LOCK_UN)
+            unlock(handle)
 
 
 def remove_stale_temporaries(out: Path) -> None:

@@ -49,6 +49,9 @@ def guess_format(path: Path, head: bytes) -> str:
 def file_head(file: Path, size: int = 8192) -> bytes:
     """The first ``size`` bytes of a data file, which must exist and not be empty (to guess its format)."""
     if not file.is_file():
+        if file.exists():
+            raise ProfileFormatError(f"{file} is not a regular file (a folder, a device or a pipe): a run must be a "
+                                     "profile or surface file")
         raise ProfileFormatError(f"no such file: {file}")
     if file.stat().st_size == 0:
         raise ProfileFormatError(f"{file.name} is empty")
