@@ -155,7 +155,7 @@ def error_budget(text: str) -> float | None:
 def manifest_command(args: argparse.Namespace) -> int:
     """``roadtex manifest FOLDER --out manifest.csv``: lists a folder's profile files as a manifest."""
     from roadtex.archive import ManifestError, build_manifest
-    from roadtex.archive.manifest import unlisted_files
+    from roadtex.archive.manifest import job_output_folders, unlisted_files
 
     try:
         table = build_manifest(args.folder, recursive=not args.no_recursive)
@@ -164,6 +164,11 @@ def manifest_command(args: argparse.Namespace) -> int:
         return 2
     table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
+    outputs = job_output_folders(Path(args.folder), not args.no_recursive)
+    if outputs:
+        names = ", ".join(str(folder.relative_to(args.folder)) for folder in outputs[:5])
+        print(f"roadtex manifest: skipped {len(outputs)} folder(s) holding a roadtex job's outputs (parameters.json, "
+              f"status files), not survey data: {names}{' ...' if len(outputs) > 5 else ''}")
     skipped = unlisted_files(args.folder, recursive=not args.no_recursive)
     if skipped:
         print(f"roadtex manifest: warning: {len(skipped)} file(s) of the folder are not listed:", file=sys.stderr)

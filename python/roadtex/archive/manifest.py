@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import io
+import json
 import os
 import warnings
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any, Sequence
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
+from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import ImplausibleTextureWarning, ManifestError
 from roadtex.profiles.plausibility import implausible_texture, judged_once
 from roadtex.profiles.readers import file_head, guess_format, read_profile
@@ -23,10 +25,48 @@ PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
 
+def json_has(path: Path, key: str) -> bool:
+    """Whether ``path`` is a JSON object holding ``key`` (False for anything else)."""
+    try:
+        return path.is_file() and key in json.loads(path.read_text())
+    except (OSError, ValueError, TypeError):
+        return False
+
+
+def is_job_output(folder: Path) -> bool:
+    """Whether ``folder`` holds a roadtex job's outputs (its ``parameters.json``, a run's
+    ``status.json``, or run folders with status files: a job interrupted before its tables), which
+    are no survey data: listing them would make a job of its own Parquet tables."""
+    if json_has(folder / "parameters.json", "options_fingerprint") or json_has(folder / STATUS_FILE, "fingerprint"):
+        return True
+    runs = folder / "runs"
+    return runs.is_dir() and any(json_has(status, "fingerprint") for status in runs.glob(f"*/{STATUS_FILE}"))
+
+
+def job_output_folders(root: Path, recursive: bool = True) -> list[Path]:
+    """The folders under ``root`` (``root`` itself included) that hold a job's outputs
+    (:func:`is_job_output`), outermost only: :func:`build_manifest` skips them."""
+    if is_job_output(root):
+        return [root]
+    found = []
+    for folder, subfolders, _ in os.walk(root) if recursive else ():
+        keep = []
+        for name in sorted(subfolders):
+            if is_job_output(Path(folder) / name):
+                found.append(Path(folder) / name)
+            else:
+                keep.append(name)
+        subfolders[:] = keep   # not descended into
+    return found
+
+
 def candidate_files(root: Path, recursive: bool) -> list[Path]:
-    """The files of a survey folder :func:`build_manifest` considers: not hidden, not a manifest."""
+    """The files of a survey folder :func:`build_manifest` considers: not hidden, not a manifest,
+    not in a folder holding a job's outputs (:func:`job_output_folders`)."""
+    skipped = job_output_folders(root, recursive)
     return sorted(p for p in (root.rglob("*") if recursive else root.glob("*"))
-                  if p.is_file() and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
+                  if p.is_file() and not p.name.lower().startswith("manifest") and not p.name.startswith(".")
+                  and not any(p.is_relative_to(folder) for folder in skipped))
 
 
 def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) -> list[str]:
@@ -224,7 +264,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
 
     Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg are listed, except
-    hidden files and files named ``manifest*`` (a manifest kept beside its data). 3-D surfaces
+    hidden files, files named ``manifest*`` (a manifest kept beside its data) and folders holding a
+    job's outputs (:func:`job_output_folders`: ``roadtex process --out`` inside the survey folder). 3-D surfaces
     (:func:`roadtex.surfaces.readers.is_surface_file`: OpenCRG, a 2-D ``.npy``, a table with x,
     y and z columns) get ``format`` "surface" and are processed as surface runs. With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
@@ -238,6 +279,9 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     root = Path(folder)
     if not root.is_dir():
         raise ManifestError(f"{root} is not a folder")
+    if is_job_output(root):
+        raise ManifestError(f"{root} holds a roadtex job's outputs (parameters.json, runs/*/status.json), not survey "
+                            "data: give the folder of the profile files")
     files = [p for p in candidate_files(root, recursive) if p.suffix.lower() in PROFILE_SUFFIXES]
     if not files:
         others = unlisted_files(root, recursive=recursive)
