@@ -49,7 +49,7 @@ def process_command(args: argparse.Namespace) -> int:
 
     from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
-    from roadtex.errors import ImplausibleParameterWarning, MissingDependencyError
+    from roadtex.errors import ImplausibleParameterWarning, JobInterrupted, MissingDependencyError
     from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
 
     if args.quiet:
@@ -98,6 +98,9 @@ def process_command(args: argparse.Namespace) -> int:
     except (ManifestError, ArchiveWriteError, MissingDependencyError, ValueError) as exc:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
+    except JobInterrupted as stop:
+        print(f"roadtex process: {stop}", file=sys.stderr)
+        return 130   # 128 + SIGINT, as shells report a command stopped by Ctrl-C
     print(f"roadtex process: {summary}")
     width = max((len(name) for name in summary.tables), default=0)
     for name, path in summary.tables.items():
@@ -323,7 +326,11 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)
     args = parser.parse_args(argv)
-    return args.run(args)
+    try:
+        return args.run(args)
+    except KeyboardInterrupt:   # Ctrl-C outside a job's runs (process says how many runs were done)
+        print(f"roadtex {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -40,3 +40,63 @@ def test_manifest_skips_a_folder_holding_a_jobs_outputs(tmp_path: Path, capsys) 
     # the output folder itself given as the survey folder: refused, saying why
     assert main(["manifest", str(folder / "results"), "--out", str(tmp_path / "m2.csv")]) == 2
     assert "holds a roadtex job's outputs" in capsys.readouterr().err
+
+
+SLOW_JOB = """
+import sys, time
+import roadtex.archive.job as job
+from roadtex.cli import main
+compute = job.compute_run
+def slow(*args, **kwargs):   # a long run, as a real one would be: the interrupt lands mid-job
+    time.sleep(1.0)
+    return compute(*args, **kwargs)
+job.compute_run = slow
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_ctrl_c_during_process_says_one_line_exits_130_and_leaves_no_temporaries(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    files = survey(tmp_path / "survey", runs=6)
+    pl.DataFrame({"path": [str(p) for p in files]}).write_csv(tmp_path / "manifest.csv")
+    out = tmp_path / "results"
+    argv = [sys.executable, "-c", SLOW_JOB, "process", str(tmp_path / "manifest.csv"), "--out", str(out), "--quiet",
+            "--error-budget", "off", "--dx", str(DX), "--segment-length", "0.128", "--threads", "1"]
+    job = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list(out.glob("runs/*/status.json")) and time.monotonic() < deadline and job.poll() is None:
+        time.sleep(0.05)
+    assert job.poll() is None, job.communicate()
+    job.send_signal(signal.SIGINT)
+    stdout, stderr = job.communicate(timeout=120)
+    assert job.returncode == 130, stderr
+    assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
+    last = stderr.strip().splitlines()[-1]
+    assert last.startswith("roadtex process: interrupted after ") and last.endswith(
+        "of 6 runs; run the same command again to resume"), last
+    done = int(last.split("interrupted after ")[1].split()[0])
+    assert 1 <= done < 6
+    assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+    # the same command again resumes: the runs done are not computed again
+    again = subprocess.run(argv[:1] + ["-m", "roadtex.cli"] + argv[3:], capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    resumed = int(again.stdout.split(" already done")[0].rsplit(" ", 1)[1])
+    assert done <= resumed < 6, again.stdout   # the runs in flight at Ctrl-C finished and count too
+
+
+def test_ctrl_c_while_writing_a_table_leaves_no_temporary(tmp_path: Path) -> None:
+    import pytest
+
+    from roadtex.archive.store import write_atomically
+
+    def interrupted(path: Path) -> None:
+        path.write_text("half a table")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_atomically(tmp_path / "runs.parquet", interrupted)
+    assert list(tmp_path.iterdir()) == []

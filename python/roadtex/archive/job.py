@@ -52,7 +52,7 @@ from roadtex.archive.store import (
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, ResultsNotFoundError
+from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, JobInterrupted, ResultsNotFoundError
 from roadtex.profiles.plausibility import judged_once
 
 Engine = Literal["local", "dask"]
@@ -192,6 +192,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     Raises:
         ManifestError: a bad manifest (before any work starts).
         ArchiveWriteError: the output folder cannot be written.
+        JobInterrupted: Ctrl-C (a KeyboardInterrupt): the runs in flight finish, temporary files
+            are removed, and the same call again resumes.
     """
     options = options or ProcessingOptions()
     table = read_manifest(manifest, extra_columns=extra_columns)
@@ -203,24 +205,30 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
-    # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
-    # and their own spacings
-    plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
-    resolved = plan.resolved(options)
-    progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
-    flags = {"force": force, "retry_failed": retry_failed}
     try:
-        if engine == "local":
-            finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
-        else:
-            finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads, flags)
-        for status, size in finished:
-            statuses[status["run_id"]] = status
-            progress.update(status, size)
-    finally:
-        progress.close()
-    tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
+        # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
+        # and their own spacings
+        plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
+        resolved = plan.resolved(options)
+        progress = Progress(len(runs), sum(sizes), quiet)
+        flags = {"force": force, "retry_failed": retry_failed}
+        try:
+            if engine == "local":
+                finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
+            else:
+                finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads, flags)
+            for status, size in finished:
+                statuses[status["run_id"]] = status
+                progress.update(status, size)
+        finally:
+            progress.close()
+        tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
+    except KeyboardInterrupt:
+        # the runs in flight have finished writing by now (the engines wait for them): what is on
+        # disk is complete, and a rerun resumes from it
+        remove_stale_temporaries(out)
+        raise JobInterrupted(len(statuses), len(runs)) from None
     warn_surfaces_over_budget(tables["runs"], [run["run_id"] for run in runs if is_surface_run(run)],
                               options.error_budget_db)
     counts = {state: sum(1 for s in statuses.values() if s["state"] == state and not s["skipped"])
