@@ -109,9 +109,36 @@ def process_command(args: argparse.Namespace) -> int:
     if upsampled:
         print(f"roadtex process: warning: {upsampled}", file=sys.stderr)
     if summary.failed_on_record:
-        print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
-              f"{summary.tables.get('errors')}", file=sys.stderr)
+        print(f"roadtex process: {summary.failed_on_record} run(s) failed, by cause (all of them in "
+              f"{summary.tables.get('errors')}):", file=sys.stderr)
+        for line in failure_causes(summary.tables.get("errors")):
+            print(f"  {line}", file=sys.stderr)
     return 1 if summary.failed_on_record else 0
+
+
+def failure_causes(errors_table: Path | None, shown: int = 10) -> list[str]:
+    """The failed runs of errors.parquet grouped by cause (stage, error type and message, the file's
+    name and the numbers in the message aside: 'the run is 0.3 m long' and '0.2 m long' are one
+    cause), most frequent first: one line each with the count and one example file's message."""
+    import re
+
+    import polars as pl
+
+    if errors_table is None or not Path(errors_table).is_file():
+        return []
+    errors = pl.read_parquet(errors_table)
+    groups: dict[tuple[str, str, str], list[dict[str, str]]] = {}
+    for row in errors.iter_rows(named=True):
+        message = str(row["message"] or "")
+        name = Path(str(row["path"] or "")).name
+        generic = re.sub(r"[-+]?\d[\d.,eE+-]*", "#", message.replace(name, "FILE") if name else message)
+        groups.setdefault((str(row["stage"]), str(row["error_type"]), generic), []).append(row)
+    ordered = sorted(groups.items(), key=lambda item: -len(item[1]))
+    lines = [f"{len(rows)} run(s), {stage} ({kind}), e.g. {rows[0]['message']}"
+             for (stage, kind, _), rows in ordered[:shown]]
+    if len(ordered) > shown:
+        lines.append(f"... and {len(ordered) - shown} more cause(s)")
+    return lines
 
 
 #: A file sampled this many times more coarsely than the job's interval is reported as upsampled.

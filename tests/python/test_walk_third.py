@@ -100,3 +100,21 @@ def test_ctrl_c_while_writing_a_table_leaves_no_temporary(tmp_path: Path) -> Non
     with pytest.raises(KeyboardInterrupt):
         write_atomically(tmp_path / "runs.parquet", interrupted)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_process_prints_failure_reasons_grouped_by_cause(tmp_path: Path, capsys) -> None:
+    folder = tmp_path / "survey"
+    good = survey(folder, runs=1)
+    short = [write_profile(synthetic_pavement("dense_asphalt", length, DX, seed=7), folder / f"short{i}.csv")
+             for i, length in enumerate((0.11, 0.12))]
+    (folder / "broken.csv").write_text("distance;height\nnot;numbers\n")
+    pl.DataFrame({"path": [str(p) for p in (*good, *short, folder / "broken.csv")]}).write_csv(tmp_path / "m.csv")
+    code = main(["process", str(tmp_path / "m.csv"), "--out", str(tmp_path / "out"), "--quiet", "--error-budget",
+                 "off", "--dx", str(DX), "--segment-length", "0.128", "--threads", "1"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "3 run(s) failed, by cause" in err
+    lines = [line.strip() for line in err.splitlines() if line.startswith("  ") and " run(s), " in line]
+    assert len(lines) == 2, err
+    assert lines[0].startswith("2 run(s), segment (") and "e.g. short0.csv: " in lines[0], lines
+    assert lines[1].startswith("1 run(s), read (") and "e.g. broken.csv: " in lines[1], lines
