@@ -118,3 +118,28 @@ def test_process_prints_failure_reasons_grouped_by_cause(tmp_path: Path, capsys)
     assert len(lines) == 2, err
     assert lines[0].startswith("2 run(s), segment (") and "e.g. short0.csv: " in lines[0], lines
     assert lines[1].startswith("1 run(s), read (") and "e.g. broken.csv: " in lines[1], lines
+
+
+def test_tables_and_report_say_why_mpd_baselines_were_rejected(tmp_path: Path) -> None:
+    import numpy as np
+
+    from roadtex.profiles import Profile
+    from roadtex.report import build_report
+
+    base = synthetic_pavement("dense_asphalt", 0.3, DX, seed=3)
+    heights = base.heights.copy()
+    x = np.arange(heights.size) * DX
+    spiky = np.flatnonzero((x >= 0.11) & (x < 0.19))[::8]       # baseline 2: about 25 % of its samples flagged
+    heights[spiky] += 5e-3
+    heights[(x >= 0.21) & (x < 0.24)] = np.nan                   # baseline 3: 30 % of its readings missing
+    path = write_profile(Profile.from_heights(heights, DX), tmp_path / "station.parquet")
+    out = tmp_path / "out"
+    process(pl.DataFrame({"path": [str(path)]}), out, OPTIONS, quiet=True, threads=1)
+    runs = pl.read_parquet(out / "runs.parquet")
+    assert runs["mpd_baselines"][0] == 3 and runs["mpd_valid_baselines"][0] == 1 and not runs["mpd_valid"][0]
+    assert (runs["mpd_spike_rejected"][0], runs["mpd_dropout_rejected"][0]) == (1, 1)
+    note = runs["mpd_rejections"][0]
+    assert note.startswith("2 of 3 baselines rejected: 1 by the spike test (") and "more than 5 %" in note, note
+    assert "1 by drop-outs (30 % of the readings missing, more than 10 %)" in note, note
+    html = build_report(out).html.read_text(encoding="utf-8")
+    assert "MPD baselines rejected" in html and "1 by the spike test" in html

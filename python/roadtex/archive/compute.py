@@ -235,6 +235,8 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
+        "mpd_spike_rejected": [depth.rejected["spikes"]], "mpd_dropout_rejected": [depth.rejected["dropouts"]],
+        "mpd_rejections": [depth.rejection_note()],
     }, schema=RUN_RUN_SCHEMA)
 
 

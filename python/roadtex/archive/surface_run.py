@@ -398,6 +398,10 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
         "mpd_valid": [bool(all(d.is_valid for d in depths))],
         "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],
         "mpd_baselines": [int(sum(int(d.segments.height) for d in depths))],
+        "mpd_spike_rejected": [sum(d.rejected["spikes"] for d in depths)],
+        "mpd_dropout_rejected": [sum(d.rejected["dropouts"] for d in depths)],
+        "mpd_rejections": ["; ".join(f"line {i}: {note}" for i, d in enumerate(depths)
+                                     for note in [d.rejection_note()] if note) or None],
     }, schema=RUN_RUN_SCHEMA)
 
 

@@ -177,7 +177,7 @@ def modulus_column(e: float) -> str:
 
 def run_table(results: Results) -> pl.DataFrame:
     """The report's main table: per run, length (m), MPD (mm; null where undefined) and whether it
-    is valid (ISO 13473-1: half the baselines valid), and per E the
+    is valid (ISO 13473-1: half the baselines valid) with why baselines were rejected, and per E the
     contact fraction (%) and the mean texture level of the original profile (dB re 1 µm, energetic
     mean over the run's reported bands and segments)."""
     seg = results.segments
@@ -188,6 +188,9 @@ def run_table(results: Results) -> pl.DataFrame:
                                (pl.col("mpd").fill_nan(None) * MM).alias("MPD (mm)"),
                                pl.when(pl.col("mpd_valid")).then(pl.lit("yes")).otherwise(pl.lit("no"))
                                .alias("MPD valid"))
+    if "mpd_rejections" in results.runs.columns:   # why baselines were rejected (absent from older jobs' tables)
+        wide = wide.join(results.runs.select("run_id", pl.col("mpd_rejections").fill_null("none")
+                                             .alias("MPD baselines rejected")), on="run_id", how="left")
     if results.group_column() != "run_id":
         groups = results.run_groups().rename({"group": results.group_column()})
         wide = groups.join(wide, on="run_id", how="right").select("run_id", pl.exclude("run_id"))
