@@ -317,16 +317,35 @@ def show_warning(message: Warning | str, category: type[Warning], filename: str,
     print(f"roadtex: warning: {message}", file=sys.stderr)
 
 
+def unrecognized(parser: argparse.ArgumentParser, unknown: list[str]) -> None:
+    """Exits as argparse does (status 2), with the sub-command's usage (not the top level's, which
+    says nothing of its options) and, for each unknown option, the closest known one."""
+    import difflib
+
+    known = [option for action in parser._actions for option in action.option_strings]
+    hints = []
+    for arg in unknown:
+        if arg.startswith("-"):
+            close = difflib.get_close_matches(arg.split("=", 1)[0], known, n=1, cutoff=0.6)
+            if close:
+                hints.append(f"{arg}: did you mean {close[0]}?")
+    parser.error(f"unrecognized arguments: {' '.join(unknown)}{' (' + '; '.join(hints) + ')' if hints else ''}")
+
+
 def main(argv: list[str] | None = None) -> int:
     import warnings
 
     warnings.showwarning = show_warning
     from roadtex._core import __version__
 
-    parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
-    parser.add_argument("--version", action="version", version=f"roadtex {__version__}")
+    # no abbreviations: '--pres 0.3' must not be taken silently as --pressure (nor a later option
+    # sharing the prefix break an old command line)
+    parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.",
+                                     allow_abbrev=False)
+    parser.add_argument("-V", "--version", action="version", version=f"roadtex {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
-    d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report")
+    d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report",
+                            allow_abbrev=False)
     d.add_argument("--out", default="roadtex-output", help="output folder (default roadtex-output)")
     d.add_argument("--manifest", default=None, help="process this archive instead of the built-in one")
     d.add_argument("--runs", type=int, default=2, help="runs per pavement type in the built-in archive (default 2)")
@@ -337,22 +356,24 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(run=demo)
-    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)")
+    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)", allow_abbrev=False)
     p.add_argument("manifest", help="manifest file (CSV or Parquet) listing the runs")
     p.add_argument("--out", required=True, help="output folder")
     _add_processing_arguments(p)
     p.set_defaults(run=process_command)
-    r = commands.add_parser("report", help="HTML report and figures of a processed archive")
+    r = commands.add_parser("report", help="HTML report and figures of a processed archive", allow_abbrev=False)
     r.add_argument("results", help="the output folder of roadtex process")
     r.add_argument("--out", default=None, help="report folder (default RESULTS/report)")
     r.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     r.set_defaults(run=report_command)
-    m = commands.add_parser("manifest", help="list a folder's profile and 3-D surface files as a manifest CSV")
+    m = commands.add_parser("manifest", help="list a folder's profile and 3-D surface files as a manifest CSV", allow_abbrev=False)
     m.add_argument("folder", help="folder with profile and surface files (surfaces get format 'surface')")
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        unrecognized(commands.choices[args.command], unknown)
     try:
         return args.run(args)
     except KeyboardInterrupt:   # Ctrl-C outside a job's runs (process says how many runs were done)

@@ -143,3 +143,23 @@ def test_tables_and_report_say_why_mpd_baselines_were_rejected(tmp_path: Path) -
     assert "1 by drop-outs (30 % of the readings missing, more than 10 %)" in note, note
     html = build_report(out).html.read_text(encoding="utf-8")
     assert "MPD baselines rejected" in html and "1 by the spike test" in html
+
+
+def test_cli_refuses_abbreviations_and_suggests_on_typos(tmp_path: Path, capsys) -> None:
+    import pytest
+
+    from roadtex import __version__
+
+    for typo, hint in ((["--pres", "0.3"], None), (["--moduil", "2"], "--moduil: did you mean --moduli?")):
+        with pytest.raises(SystemExit) as stop:
+            main(["process", "m.csv", "--out", str(tmp_path / "out"), *typo])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err
+        assert err.startswith("usage: roadtex process "), err    # the sub-command's usage, not the top level's
+        assert f"unrecognized arguments: {typo[0]}" in err, err
+        if hint:
+            assert hint in err, err
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(SystemExit) as stop:
+        main(["-V"])
+    assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"roadtex {__version__}"
