@@ -63,6 +63,12 @@ def warn_if_implausible_rubber(youngs_moduli: object, mean_pressure: float) -> N
 
 def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
     """A contiguous float64 array of exactly ``ndim`` dimensions (values are not checked here)."""
+    if hasattr(values, "heights") and hasattr(values, "dx"):   # a Profile or Surface where arrays are taken
+        kind = type(values).__name__
+        raise InvalidInputError(
+            f"{name} is a roadtex {kind}, where the heights (m) are expected: pass its .heights and .dx (m), "
+            f"e.g. roadtex.contact(p.heights, p.dx, youngs_modulus, mean_pressure); a {kind} with drop-outs "
+            "(NaN) needs conditioning first (roadtex.profiles.conditioning.clean)")
     try:
         array = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -88,7 +88,8 @@ def process_command(args: argparse.Namespace) -> int:
             mpd_spike_alpha=None if args.mpd_spike_alpha <= 0 else args.mpd_spike_alpha, tol=args.tol,
             error_budget_db=error_budget(args.error_budget),
             band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
-            reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
+            reader_defaults={k: v for k, v in reader_defaults.items() if v is not None},
+            allow_implausible=args.allow_implausible)
         with warnings.catch_warnings():
             # the plausibility of E and P was settled above (--allow-implausible)
             warnings.simplefilter("ignore", ImplausibleParameterWarning)

@@ -163,3 +163,36 @@ def test_cli_refuses_abbreviations_and_suggests_on_typos(tmp_path: Path, capsys)
     with pytest.raises(SystemExit) as stop:
         main(["-V"])
     assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"roadtex {__version__}"
+
+
+def test_python_api_is_as_strict_as_the_cli() -> None:
+    import warnings
+
+    import numpy as np
+    import pytest
+
+    import roadtex
+    from roadtex.errors import ImplausibleParameterWarning, InvalidInputError
+    from roadtex.surfaces import Surface
+
+    # MPa given to the SI API: one refusal, naming every value, and the flag that allows it
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(InvalidInputError) as refused:
+            ProcessingOptions(youngs_moduli=[1, 2, 5, 10])
+    message = str(refused.value)
+    assert message.count("is outside the plausible range") == 4 and "allow_implausible=True" in message
+    assert not [w for w in caught if issubclass(w.category, ImplausibleParameterWarning)]
+    allowed = ProcessingOptions(youngs_moduli=[1, 2, 5, 10], allow_implausible=True)
+    assert allowed.youngs_moduli == (1.0, 2.0, 5.0, 10.0)
+    # the flag changes nothing computed: a job's runs stay current whichever way it is set
+    assert ProcessingOptions(allow_implausible=True).fingerprint() == ProcessingOptions().fingerprint()
+    # a Profile where heights are taken: said what to pass
+    profile = synthetic_pavement("dense_asphalt", 0.1, DX, seed=1)
+    with pytest.raises(InvalidInputError, match=r"heights is a roadtex Profile.*pass its \.heights and \.dx"):
+        roadtex.contact(profile, DX, 2e6, 2e5)
+    # a surface resampled finer than its data: refused clearly, not a grid of NaN
+    surface = Surface(np.random.default_rng(1).normal(0, 1e-4, (8, 64)), 1e-3, 2e-3)
+    with pytest.raises(InvalidInputError, match="dx 0.0001 m is finer than the surface's own spacing 0.001 m"):
+        surface.resample(1e-4, 2e-3)
+    assert surface.resample(2e-3, 4e-3).heights.shape == (4, 32)

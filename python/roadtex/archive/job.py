@@ -52,7 +52,14 @@ from roadtex.archive.store import (
 )
 from roadtex.archive.surface_run import compute_surface_run, is_surface_run
 from roadtex.comparisons.figures import edge_effect, example_comparisons
-from roadtex.errors import ArchiveWriteError, ErrorBudgetWarning, InvalidInputError, JobInterrupted, ResultsNotFoundError
+from roadtex.errors import (
+    ArchiveWriteError,
+    ErrorBudgetWarning,
+    ImplausibleParameterWarning,
+    InvalidInputError,
+    JobInterrupted,
+    ResultsNotFoundError,
+)
 from roadtex.profiles.plausibility import judged_once
 
 Engine = Literal["local", "dask"]
@@ -209,18 +216,25 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     try:
         # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
         # and their own spacings
-        plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
+        with warnings.catch_warnings():
+            if options.allow_implausible:   # asked for: the pilot's solves do not warn either
+                warnings.simplefilter("ignore", ImplausibleParameterWarning)
+            plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
         resolved = plan.resolved(options)
         progress = Progress(len(runs), sum(sizes), quiet)
         flags = {"force": force, "retry_failed": retry_failed}
         try:
-            if engine == "local":
-                finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
-            else:
-                finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads, flags)
-            for status, size in finished:
-                statuses[status["run_id"]] = status
-                progress.update(status, size)
+            with warnings.catch_warnings():
+                if options.allow_implausible:   # asked for: the runs' solvers do not warn again, run after run
+                    warnings.simplefilter("ignore", ImplausibleParameterWarning)
+                if engine == "local":
+                    finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
+                else:
+                    finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads,
+                                            flags)
+                for status, size in finished:
+                    statuses[status["run_id"]] = status
+                    progress.update(status, size)
         finally:
             progress.close()
         tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
