@@ -185,6 +185,8 @@ def error_budget(text: str) -> float | None:
 
 def manifest_command(args: argparse.Namespace) -> int:
     """``roadtex manifest FOLDER --out manifest.csv``: lists a folder's profile files as a manifest."""
+    import polars as pl
+
     from roadtex.archive import ManifestError, build_manifest
     from roadtex.archive.manifest import job_output_folders, unlisted_files
 
@@ -193,7 +195,11 @@ def manifest_command(args: argparse.Namespace) -> int:
     except ManifestError as exc:
         print(f"roadtex manifest: error: {exc}", file=sys.stderr)
         return 2
-    table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
+    # paths relative to the manifest's folder (where roadtex process takes them from): the folder and
+    # its manifest can be moved, or sent, together
+    home = Path(args.out).resolve().parent
+    written = table.with_columns(pl.Series("path", [relative_path(path, home) for path in table["path"]]))
+    written.drop([c for c in written.columns if written[c].null_count() == written.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
     outputs = job_output_folders(Path(args.folder), not args.no_recursive)
     if outputs:
@@ -222,6 +228,17 @@ def manifest_command(args: argparse.Namespace) -> int:
         if len(problems) > 10:
             print(f"  ... and {len(problems) - 10} more", file=sys.stderr)
     return 0
+
+
+def relative_path(path: str, folder: Path) -> str:
+    """``path`` relative to ``folder`` with forward slashes (a spreadsheet's and every system's),
+    or as it is where there is no relative path (another drive)."""
+    import os
+
+    try:
+        return Path(os.path.relpath(path, folder)).as_posix()
+    except ValueError:
+        return path
 
 
 def read_problem(path: str, *, surface: bool = False) -> str | None:

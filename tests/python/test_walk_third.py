@@ -196,3 +196,23 @@ def test_python_api_is_as_strict_as_the_cli() -> None:
     with pytest.raises(InvalidInputError, match="dx 0.0001 m is finer than the surface's own spacing 0.001 m"):
         surface.resample(1e-4, 2e-3)
     assert surface.resample(2e-3, 4e-3).heights.shape == (4, 32)
+
+
+def test_manifest_paths_are_relative_to_the_manifests_folder(tmp_path: Path, capsys) -> None:
+    import shutil
+
+    project = tmp_path / "project"
+    files = survey(project / "survey")
+    (project / "jobs").mkdir()
+    assert main(["manifest", str(project / "survey"), "--out", str(project / "jobs" / "manifest.csv")]) == 0
+    paths = pl.read_csv(project / "jobs" / "manifest.csv")["path"].to_list()
+    assert paths == [f"../survey/{p.name}" for p in files]
+    # the project moved (or sent to a colleague) as a whole: its manifest still finds every file
+    moved = tmp_path / "elsewhere"
+    shutil.move(project, moved)
+    capsys.readouterr()
+    code = main(["process", str(moved / "jobs" / "manifest.csv"), "--out", str(tmp_path / "out"), "--quiet",
+                 "--error-budget", "off", "--dx", str(DX), "--segment-length", "0.128", "--threads", "1"])
+    assert code == 0, capsys.readouterr().err
+    runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
+    assert sorted(Path(p).parent for p in runs["path"]) == [(moved / "survey").resolve()] * len(files)
