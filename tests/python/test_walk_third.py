@@ -216,3 +216,30 @@ def test_manifest_paths_are_relative_to_the_manifests_folder(tmp_path: Path, cap
     assert code == 0, capsys.readouterr().err
     runs = pl.read_parquet(tmp_path / "out" / "runs.parquet")
     assert sorted(Path(p).parent for p in runs["path"]) == [(moved / "survey").resolve()] * len(files)
+
+
+def test_hand_written_files_two_unknown_columns_and_a_2d_npy_without_format(tmp_path: Path) -> None:
+    import numpy as np
+
+    import roadtex
+    from roadtex.archive import read_manifest
+
+    profile = synthetic_pavement("dense_asphalt", 0.3, DX, seed=5)
+    x_mm, z_mm = profile.positions * 1e3, profile.heights * 1e3
+    german = tmp_path / "strecke.csv"
+    german.write_text("Abstand;Hoehe\n" + "".join(f"{x:.4f};{z:.5f}\n".replace(".", ",") for x, z in zip(x_mm, z_mm)))
+    read = roadtex.read_profile(german, distance_unit="mm", height_unit="mm")
+    np.testing.assert_allclose(read.heights, profile.heights, atol=1e-8)
+    np.testing.assert_allclose(read.positions, profile.positions, atol=1e-7)
+    assert any("the first ('Abstand') is read as the distance and the second ('Hoehe') as the height" in h for h in read.history)
+    with __import__("pytest").raises(roadtex.ProfileFormatError, match="no height column"):
+        roadtex.read_profile(german)    # units not given: not guessed
+    grid = tmp_path / "scan.npy"
+    np.save(grid, np.random.default_rng(2).normal(0, 3e-4, (6, 400)))
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text("path;dx;dy;distance_unit;height_unit\nstrecke.csv;;;mm;mm\nscan.npy;0,0005;0,001;;\n")
+    table = read_manifest(manifest)
+    assert table["format"].to_list() == [None, "surface"]
+    summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True, threads=1)
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert (summary.failed, summary.surface_runs) == (0, 1), errors["message"].to_list()

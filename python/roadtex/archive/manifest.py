@@ -96,7 +96,9 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     Columns: ``path`` (required; relative paths are taken from the manifest's folder or
     ``base_dir``), optional ``run_id`` (default: the file name without suffix; must be unique),
     ``format`` (as for :func:`roadtex.read_profile`; default: guessed; ``surface`` makes the run a
-    3D surface run read by :func:`roadtex.read_surface`, as does a ``.crg`` file), the metadata columns
+    3D surface run read by :func:`roadtex.read_surface`, as does a ``.crg`` file; left empty, a file
+    that :func:`~roadtex.surfaces.readers.is_surface_file` finds a surface gets ``surface``, as
+    :func:`build_manifest` gives it), the metadata columns
     :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h), reader options per run
     (:data:`READER_COLUMNS`: ``distance_unit``, ``height_unit``, ``delimiter``, ``decimal``, ``dx``
     in m for heights-only files, ...; see :func:`roadtex.read_profile`; ``dy`` in m across the road
@@ -205,7 +207,12 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
         seen[rid] = index
-    return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
+    # a surface file listed without a format (a hand-written manifest: a 2-D .npy with dx and dy) is
+    # a surface run, as roadtex manifest would have marked it
+    formats = [fmt if fmt is not None or not is_surface_file(path) else "surface"
+               for fmt, path in zip(table["format"].to_list(), paths)]
+    return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids),
+                              pl.Series("format", formats, dtype=pl.String))
 
 
 def read_text_manifest(path: Path) -> pl.DataFrame:
