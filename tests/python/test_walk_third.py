@@ -243,3 +243,18 @@ def test_hand_written_files_two_unknown_columns_and_a_2d_npy_without_format(tmp_
     summary = process(manifest, tmp_path / "out", OPTIONS, quiet=True, threads=1)
     errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
     assert (summary.failed, summary.surface_runs) == (0, 1), errors["message"].to_list()
+
+
+def test_real_data_tests_say_why_they_skip_and_how_to_run_them(tmp_path: Path) -> None:
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "ROADTEX_CAPTIF_DIR": str(tmp_path / "no-such-folder")}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                           str(Path(__file__).with_name("test_user_path.py")), "-k", "real_captif_files"],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert "1 skipped" in done.stdout, done.stdout
+    line = next((line for line in done.stdout.splitlines() if "real-data test(s) skipped" in line), "")
+    assert line.startswith("1 real-data test(s) skipped: no CAPTIF profiles at "), done.stdout
+    assert "../shared/data/captif-slp" in line and "ROADTEX_CAPTIF_DIR" in line
