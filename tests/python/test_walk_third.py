@@ -258,3 +258,64 @@ def test_real_data_tests_say_why_they_skip_and_how_to_run_them(tmp_path: Path) -
     line = next((line for line in done.stdout.splitlines() if "real-data test(s) skipped" in line), "")
     assert line.startswith("1 real-data test(s) skipped: no CAPTIF profiles at "), done.stdout
     assert "../shared/data/captif-slp" in line and "ROADTEX_CAPTIF_DIR" in line
+
+
+def test_figures_equal_scales_finest_setting_not_a_reference_and_over_budget_bands_marked(tmp_path: Path) -> None:
+    import warnings
+
+    import matplotlib.patches
+    import numpy as np
+
+    from roadtex.report.data import load_results, pyplot
+    from roadtex.report.error_budget import fig_setting_speed_vs_error
+    from roadtex.report.spectra_figures import fig_pressure_spectra, fig_texture_spectra
+    from roadtex.report.surface_figures import fig_line_vs_areal, fig_surface_tiles
+    from roadtex.surfaces import synthetic_surface
+
+    line = write_profile(synthetic_pavement("dense_asphalt", 0.6, DX, seed=1), tmp_path / "line.csv")
+    surface = synthetic_surface("dense_asphalt", length=0.26, width=0.04, dx=DX, seed=1)
+    np.save(tmp_path / "surf.npy", surface.heights)
+    manifest = pl.DataFrame({"path": [str(line), str(tmp_path / "surf.npy")], "format": [None, "surface"],
+                             "dx": [None, DX], "dy": [None, DX]})
+    budget = 0.05    # below what 0.5 mm data can reach in the short-wavelength bands: some bands exceed it
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        process(manifest, tmp_path / "out", ProcessingOptions(youngs_moduli=(2e6, 1e7), segment_length=0.128,
+                                                              error_budget_db=budget), quiet=True, threads=1)
+    results = load_results(tmp_path / "out")
+    bands = pl.read_parquet(tmp_path / "out" / "bands.parquet")
+    plt = pyplot()
+
+    tiles = fig_surface_tiles(plt, results)
+    images = [ax for ax in tiles.axes if ax.images]
+    assert images and all(ax.get_aspect() == 1.0 for ax in images)   # mm along = mm across
+
+    def hatched(ax) -> list[float]:
+        return sorted(p.get_x() + p.get_width() / 2 for p in ax.patches
+                      if isinstance(p, matplotlib.patches.Rectangle) and p.get_hatch())
+
+    labels = results.bands.sort("band")["band"].unique(maintain_order=True).to_list()
+    over = sorted({labels.index(b) for b in bands.filter((pl.col("run_id") == "line") & (pl.col("level_error_db") > budget))
+                   ["band"].to_list()})
+    assert over, "the test needs bands over the budget"
+    for draw in (fig_texture_spectra, fig_pressure_spectra):
+        fig = draw(plt, results)
+        panel = next(ax for ax in fig.axes if ax.get_title() == "line")
+        np.testing.assert_allclose(hatched(panel), over)
+        assert "band whose stated error exceeds the budget" in [t.get_text() for t in fig.legends[0].get_texts()]
+    areal = fig_line_vs_areal(plt, results)
+    assert hatched(areal.axes[0]), "the surface run's bands over the budget are marked too"
+
+    speed = fig_setting_speed_vs_error(plt, results)
+    texts = [t.get_text() for ax in speed.axes for t in ax.texts]
+    assert not [t for t in texts if "reference" in t] and any(t.endswith(" finest") for t in texts)
+    pilot = pl.read_parquet(tmp_path / "out" / "pilot.parquet")
+    settings = pilot.select("group", "dx", "tol").unique().height
+    panel = speed.axes[0]
+    drawn = sum(len(line.get_xdata()) for line in panel.lines if line.get_marker() == "o")
+    edge = sum(len(c.get_offsets()) for c in panel.collections if c.get_label().startswith("not every budget band"))
+    assert drawn + edge == settings    # every setting the pilot evaluated is on the panel
+    if pilot["dx"].n_unique() == 1:     # 0.5 mm data: one dx tried, and the panel says why so few points
+        note = panel.get_title().replace("\n", " ")
+        assert f"{settings} setting(s), one dx (0.5 mm, the data's)" in note and "over the budget" in note, note
+    plt.close("all")

@@ -87,7 +87,9 @@ FIGURES: dict[str, str] = {
         "Speed against error of the processed archive: for each device/pavement group, every setting "
         "(sampling interval dx, solver tolerance tol) the error-budget pilot evaluated, its measured solve time "
         "per km of road (every modulus) against its worst estimated level error in the tyre/road noise bands; "
-        "the chosen setting starred, the finest (reference) setting boxed, the budget dashed. The pilot chooses "
+        "the chosen setting starred, the finest setting boxed (at its own estimated error, which the data's "
+        "sampling sets: it is no error-free reference), settings whose dx does not report every budget band as "
+        "triangles at the right edge, the budget dashed. The pilot chooses "
         "by solver work (iterations × N log₂ N), which the machine's load does not move; the times shown are "
         "measured."),
     "speed_vs_error": "Solver speed against error (from the benchmark data).",

@@ -9,7 +9,17 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, PRESSURE_DB, TEXTURE_DB, Results, energetic_mean, legend_outside, modulus_label
+from roadtex.report.data import (
+    COLOURS,
+    PRESSURE_DB,
+    TEXTURE_DB,
+    Results,
+    energetic_mean,
+    legend_outside,
+    mark_over_budget,
+    modulus_label,
+    over_budget_bands,
+)
 from roadtex.spectra.analysis import band_regressions
 from roadtex.spectra.bands import OCTAVE_BANDS, nominal_label
 
@@ -36,10 +46,13 @@ def fig_texture_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = enveloped[group].unique(maintain_order=True).to_list()
+    over = over_budget_bands(results)
     fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
                              layout="constrained")
     for column, name in enumerate(groups):
         top, bottom = axes[0, column], axes[1, column]
+        for ax in (top, bottom):
+            mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
         base = original.filter(pl.col(group) == name)
         top.plot([position[b] for b in base["band"]], base["texture_level"], color="0.2", lw=1.6, label="original")
         for colour, e in zip(COLOURS, results.moduli):
@@ -53,7 +66,7 @@ def fig_texture_spectra(plt, results: Results):
         bottom.set(ylabel="enveloped − original level (dB)")
         bottom.axhline(0, color="0.5", lw=0.7)
         band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
-    legend_outside(fig, axes[0, 0])
+    legend_outside(fig)
     return fig
 
 
@@ -63,9 +76,11 @@ def fig_pressure_spectra(plt, results: Results):
     labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = spectra[group].unique(maintain_order=True).to_list()
+    over = over_budget_bands(results)
     fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
                              layout="constrained")
     for ax, name in zip(axes[0], groups):
+        mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
         for colour, e in zip(COLOURS, results.moduli):
             rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
             ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
@@ -73,7 +88,7 @@ def fig_pressure_spectra(plt, results: Results):
         ax.set_title(str(name))
         band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
     axes[0, 0].set_ylabel(f"pressure level L_p ({PRESSURE_DB})")
-    legend_outside(fig, axes[0, 0])
+    legend_outside(fig)
     return fig
 
 
@@ -121,7 +136,14 @@ def fig_pressure_vs_texture(plt, results: Results):
                              layout="constrained")
     for ax in axes.ravel()[len(band_list):]:
         ax.set_visible(False)
+    # an octave holds the third octaves n-1, n, n+1: marked when one of them exceeds the budget in any run
+    over = set().union(*over_budget_bands(results).values())
+    kind = results.options.get("band_kind", "third_octave")
     for ax, band in zip(axes.ravel(), band_list):
+        if over & ({band - 1, band, band + 1} if kind == "third_octave" else {band}):
+            ax.patch.set_facecolor("#fde8e8")
+            ax.text(0.02, 0.98, "stated error exceeds the budget", transform=ax.transAxes, va="top", fontsize=7,
+                    color="#d62728", gid="over_budget")
         for colour, e in zip(COLOURS, results.moduli):
             pts = octaves.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
             ax.scatter(pts["enveloped_level"], pts["pressure_level"], s=12, color=colour, label=modulus_label(e))
