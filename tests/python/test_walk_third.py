@@ -319,3 +319,30 @@ def test_figures_equal_scales_finest_setting_not_a_reference_and_over_budget_ban
         note = panel.get_title().replace("\n", " ")
         assert f"{settings} setting(s), one dx (0.5 mm, the data's)" in note and "over the budget" in note, note
     plt.close("all")
+
+
+def test_units_are_in_the_arrow_schema_of_every_table(tmp_path: Path) -> None:
+    import json
+
+    import pytest
+
+    from roadtex.archive.schemas import TABLES, units
+
+    pq = pytest.importorskip("pyarrow.parquet", reason="pyarrow (a test requirement) reads the Arrow schema")
+    files = survey(tmp_path / "survey", runs=1)
+    process(pl.DataFrame({"path": [str(files[0])]}), tmp_path / "out", OPTIONS, quiet=True, threads=1)
+    checked = 0
+    for name, columns in TABLES.items():
+        path = tmp_path / "out" / f"{name}.parquet"
+        if not path.exists():
+            continue
+        schema = pq.read_table(path).schema
+        found = {field.name: field.metadata[b"unit"].decode() for field in schema
+                 if field.metadata and b"unit" in field.metadata}
+        assert found == units(columns), name
+        assert json.loads(schema.metadata[b"units"]) == units(columns), name
+        assert pl.read_parquet(path).columns == list(columns)
+        checked += 1
+    assert checked >= 9
+    runs = pq.read_table(tmp_path / "out" / "runs.parquet")
+    assert runs.schema.field("mpd").metadata == {b"unit": b"m"} and runs.num_rows == 1

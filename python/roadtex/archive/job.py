@@ -16,6 +16,7 @@ import numpy as np
 import polars as pl
 
 from roadtex._core import __version__
+from roadtex.archive.arrow_schema import table_options
 from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
@@ -36,7 +37,6 @@ from roadtex.archive.schemas import (
     SURFACE_EXAMPLE_SCHEMA,
     TABLES,
     VON_MEIER_SCHEMA,
-    parquet_metadata,
     units,
 )
 from roadtex.archive.store import (
@@ -327,26 +327,27 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
-        metadata = parquet_metadata(TABLES[name])
+        metadata = table_options(TABLES[name])
         if files:
             query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids,
                               own).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
-            write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
+            write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, **m))
         else:
             empty = pl.DataFrame(schema=combined[name])
-            write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, metadata=m))
+            write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, **m))
         written[name] = path
     edge = edge_effect_table(options)
-    write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p, metadata=parquet_metadata(TABLES["edge_effect"])))
+    write_atomically(out / "edge_effect.parquet",
+                     lambda p: edge.select(list(TABLES["edge_effect"])).write_parquet(p, **table_options(TABLES["edge_effect"])))
     written["edge_effect"] = out / "edge_effect.parquet"
     pilot = (study.select([pl.col(c).cast(t) if c in study.columns else pl.lit(None, dtype=t).alias(c)
                            for c, t in PILOT_SCHEMA.items()])
              if study is not None and study.height else pl.DataFrame(schema=PILOT_SCHEMA))
-    write_atomically(out / "pilot.parquet", lambda p: pilot.write_parquet(p, metadata=parquet_metadata(TABLES["pilot"])))
+    write_atomically(out / "pilot.parquet", lambda p: pilot.write_parquet(p, **table_options(TABLES["pilot"])))
     written["pilot"] = out / "pilot.parquet"
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
-    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, metadata=parquet_metadata(TABLES["errors"])))
+    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, **table_options(TABLES["errors"])))
     written["errors"] = out / "errors.parquet"
     write_json(out / "parameters.json", {
         "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
