@@ -346,3 +346,19 @@ def test_units_are_in_the_arrow_schema_of_every_table(tmp_path: Path) -> None:
     assert checked >= 9
     runs = pq.read_table(tmp_path / "out" / "runs.parquet")
     assert runs.schema.field("mpd").metadata == {b"unit": b"m"} and runs.num_rows == 1
+
+
+def test_budget_warning_at_a_coarse_given_dx_says_which_bands_have_no_error_not_inf(tmp_path: Path) -> None:
+    import warnings
+
+    from roadtex.errors import ErrorBudgetWarning
+
+    files = survey(tmp_path / "survey", runs=2, length=1.0)
+    options = ProcessingOptions(youngs_moduli=(2e6, 1e7), dx=0.01, segment_length=0.5)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        process(pl.DataFrame({"path": [str(p) for p in files]}), tmp_path / "out", options, quiet=True, threads=1)
+    budget = [str(w.message) for w in caught if issubclass(w.category, ErrorBudgetWarning)]
+    assert len(budget) == 1, budget
+    assert "inf dB" not in budget[0] and "the given dx of 10 mm" in budget[0], budget[0]
+    assert "no error can be stated for" in budget[0] and "which dx 10 mm is too coarse to report" in budget[0]
