@@ -362,3 +362,22 @@ def test_budget_warning_at_a_coarse_given_dx_says_which_bands_have_no_error_not_
     assert len(budget) == 1, budget
     assert "inf dB" not in budget[0] and "the given dx of 10 mm" in budget[0], budget[0]
     assert "no error can be stated for" in budget[0] and "which dx 10 mm is too coarse to report" in budget[0]
+
+
+def test_corrupt_files_raise_profile_format_error_naming_them(tmp_path: Path) -> None:
+    import numpy as np
+    import pytest
+
+    import roadtex
+    from roadtex.errors import ProfileFormatError
+
+    for shape, read in (((40, 50), lambda p: roadtex.read_surface(p, dx=1e-3, dy=1e-3)),
+                        ((2000,), lambda p: roadtex.read_profile(p, dx=1e-3))):
+        good = tmp_path / "good.npy"
+        np.save(good, np.random.default_rng(0).normal(0, 1e-4, shape))
+        data = good.read_bytes()
+        corrupt = tmp_path / f"corrupt{len(shape)}.npy"
+        # the header intact, the data overwritten: heights of 1e300 m, as random bytes give
+        corrupt.write_bytes(data[:128] + np.full(shape, 1e300).tobytes())
+        with pytest.raises(ProfileFormatError, match=rf"^{corrupt.name}: a height .* is beyond 1e\+09 m"):
+            read(corrupt)
