@@ -381,3 +381,32 @@ def test_corrupt_files_raise_profile_format_error_naming_them(tmp_path: Path) ->
         corrupt.write_bytes(data[:128] + np.full(shape, 1e300).tobytes())
         with pytest.raises(ProfileFormatError, match=rf"^{corrupt.name}: a height .* is beyond 1e\+09 m"):
             read(corrupt)
+
+
+def test_plausibility_judgement_skips_the_medians_it_does_not_need() -> None:
+    import numpy as np
+
+    import roadtex.profiles.plausibility as plausibility
+
+    # the count-based median test is the median test, ties and drop-outs included
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        values = rng.integers(0, 6, size=(3, int(rng.integers(1, 12)))).astype(float)
+        values[rng.random(values.shape) < 0.2] = np.nan
+        values[:, 0] = rng.integers(0, 6, size=3)   # at least one valid value per row
+        for threshold in (0.5, 2.0, 2.5, 3.0):
+            np.testing.assert_array_equal(plausibility.median_above(values, threshold),
+                                          np.nanmedian(values, axis=1) > threshold)
+    # texture without drop-out codes: the gross-outlier medians are not computed; with one, they are
+    calls = []
+    real = plausibility.gross_outliers
+    plausibility.gross_outliers = lambda rows: calls.append(rows.size) or real(rows)
+    try:
+        texture = synthetic_pavement("dense_asphalt", 10.0, 5e-5, seed=2).heights
+        assert plausibility.implausible_texture(texture, 5e-5, "t.csv") is None and calls == []
+        coded = texture.copy()
+        coded[1000] = -0.85
+        assert plausibility.implausible_texture(coded, 5e-5, "t.csv") is None and calls == [texture.size]
+        assert "were the heights given in millimetres" in plausibility.implausible_texture(texture * 1e3, 5e-5, "t.csv")
+    finally:
+        plausibility.gross_outliers = real
