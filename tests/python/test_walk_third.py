@@ -410,3 +410,34 @@ def test_plausibility_judgement_skips_the_medians_it_does_not_need() -> None:
         assert "were the heights given in millimetres" in plausibility.implausible_texture(texture * 1e3, 5e-5, "t.csv")
     finally:
         plausibility.gross_outliers = real
+
+
+def test_manifest_and_process_agree_on_implausible_surfaces(tmp_path: Path) -> None:
+    import warnings
+
+    import numpy as np
+
+    from roadtex.errors import ImplausibleTextureWarning
+    from roadtex.surfaces import synthetic_surface
+
+    folder = tmp_path / "survey"
+    folder.mkdir()
+    surface = synthetic_surface("dense_asphalt", length=0.26, width=0.04, dx=DX, seed=3)
+    ny, nx = surface.heights.shape
+    x, y = np.meshgrid(np.arange(nx) * DX, np.arange(ny) * DX)
+    for name, factor in (("in_mm", 1e3), ("in_m", 1.0)):   # the first in millimetres, headed as metres
+        pl.DataFrame({"x (m)": x.ravel(), "y (m)": y.ravel(), "z (m)": surface.heights.ravel() * factor}
+                     ).write_csv(folder / f"{name}.csv")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = build_manifest(folder)
+    said = [str(w.message) for w in caught if issubclass(w.category, ImplausibleTextureWarning)]
+    assert table["format"].to_list() == ["surface", "surface"]
+    assert len(said) == 1 and "in_mm.csv" in said[0], said
+    assert "roadtex process refuses it" in said[0] and "Computing as given" not in said[0], said[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        process(table, tmp_path / "out", OPTIONS, quiet=True, threads=1)
+    errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
+    assert errors["run_id"].to_list() == ["in_mm"]          # refused, as the manifest said; the other processed
+    assert "implausible" in errors["message"][0]

@@ -15,7 +15,7 @@ import polars as pl
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import ImplausibleTextureWarning, ManifestError
-from roadtex.profiles.plausibility import implausible_texture, judged_once
+from roadtex.profiles.plausibility import implausible_surface, implausible_texture, judged_once
 from roadtex.profiles.readers import file_head, guess_format, read_profile
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
@@ -306,7 +306,10 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
             implausible = None
             try:
                 if surface:
-                    metadata = read_surface(path).metadata
+                    with judged_once():   # judged below as the job judges it, and warned about once
+                        read = read_surface(path)
+                    metadata = read.metadata
+                    implausible = implausible_surface(read.heights, read.dx, path.name)
                 else:
                     with judged_once():   # judged below, and warned about once
                         profile = read_profile(path)

@@ -52,9 +52,9 @@ from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
-from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
+from roadtex.profiles.conditioning import CleaningSummary
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import implausible_texture
+from roadtex.profiles.plausibility import implausible_surface
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -134,9 +134,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     reader = surface_reader_options(run, options)
     raw = run_stage("read", lambda: read_surface(run["path"], **reader))
     # judged without the gross outliers (drop-out codes), which conditioning removes
-    outliers = run_stage("condition", lambda: outlier_mask(raw))
-    finite = raw.heights[np.isfinite(raw.heights) & ~outliers]
-    reason = implausible_texture(finite[None, :], raw.dx, name) if finite.size else "no valid reading"
+    reason = run_stage("condition", lambda: implausible_surface(raw.heights, raw.dx, name))
     if reason is not None:
         raise RunFailure("read", InvalidInputError(
             f"{reason} Give the file's units (manifest columns distance_unit, height_unit), or correct "

@@ -141,6 +141,17 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
             "Heights and dx must be in metres: were the heights given in millimetres?")
 
 
+def implausible_surface(heights: np.ndarray, dx: float, name: str) -> str | None:
+    """The bulk job's judgement of a surface run's heights (m, rows across the road), shared by
+    ``roadtex manifest`` so that the two agree: every valid reading, drop-out codes aside (as
+    conditioning removes them), judged as one row (:func:`implausible_texture`); "no valid
+    reading" when none is left, else None when plausible."""
+    z = np.asarray(heights, dtype=np.float64)
+    codes = gross_outliers(z.reshape(-1)).reshape(z.shape)
+    finite = z[np.isfinite(z) & ~codes]
+    return implausible_texture(finite[None, :], dx, name) if finite.size else "no valid reading"
+
+
 def may_hold_codes(rows: np.ndarray) -> bool:
     """Whether any row of ``rows`` (m) spans more than :data:`OUTLIER_MIN_DISTANCE` (NaN aside):
     only then can :func:`~roadtex.profiles.conditioning.gross_outliers` find one (a reading is an
