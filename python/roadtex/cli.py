@@ -9,10 +9,28 @@ import sys
 from pathlib import Path
 
 
+def refused_rubber(command: str, moduli: list[float], pressure: float, remedy: str = "") -> bool:
+    """Prints one error line for each modulus and the pressure (MPa) outside the plausible ranges
+    of tyre rubber (usually a unit mistake); True when any was refused."""
+    from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
+
+    checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in moduli]
+    checks.append(("--pressure", pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
+    refused = [(flag, value, plausible, what) for flag, value, plausible, what in checks
+               if implausible_parameter(value * 1e6, flag, plausible) is not None]
+    for flag, value, (low, high), what in refused:
+        print(f"roadtex {command}: error: {flag} {value:g} MPa is outside the plausible range of {what} "
+              f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2)."
+              f"{remedy}", file=sys.stderr)
+    return bool(refused)
+
+
 def demo(args: argparse.Namespace) -> int:
     """``roadtex demo``: the real pipeline on the built-in archive (or a given manifest), then the report."""
     from roadtex.demo import run_demo
 
+    if refused_rubber("demo", args.moduli, args.pressure):   # as process refuses them (the demo has no override)
+        return 2
     return run_demo(Path(args.out), runs=args.runs, run_length=args.run_length, moduli_mpa=args.moduli,
                     pressure_mpa=args.pressure, manifest_path=args.manifest, benchmark=args.benchmark, quiet=args.quiet)
 
@@ -47,7 +65,6 @@ def process_command(args: argparse.Namespace) -> int:
     """``roadtex process MANIFEST --out DIR``: the bulk job."""
     import warnings
 
-    from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
     from roadtex.errors import ImplausibleParameterWarning, JobInterrupted, MissingDependencyError
     from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
@@ -62,14 +79,7 @@ def process_command(args: argparse.Namespace) -> int:
             handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(message)s"))
             log.addHandler(handler)
     if not args.allow_implausible:
-        checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
-        checks.append(("--pressure", args.pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
-        refused = [(flag, value, plausible, what) for flag, value, plausible, what in checks
-                   if implausible_parameter(value * 1e6, flag, plausible) is not None]
-        for flag, value, (low, high), what in refused:
-            print(f"roadtex process: error: {flag} {value:g} MPa is outside the plausible range of {what} "
-                  f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2); "
-                  "--allow-implausible solves it anyway.", file=sys.stderr)
+        refused = refused_rubber("process", args.moduli, args.pressure, " --allow-implausible solves it anyway.")
         coarse = [(flag, value) for flag, value in (("--dx", args.dx), ("--input-dx", args.input_dx))
                   if value is not None and value > PLAUSIBLE_MAX_DX]
         for flag, value in coarse:

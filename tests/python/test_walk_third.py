@@ -441,3 +441,10 @@ def test_manifest_and_process_agree_on_implausible_surfaces(tmp_path: Path) -> N
     errors = pl.read_parquet(tmp_path / "out" / "errors.parquet")
     assert errors["run_id"].to_list() == ["in_mm"]          # refused, as the manifest said; the other processed
     assert "implausible" in errors["message"][0]
+
+
+def test_demo_refuses_implausible_moduli_as_process_does(tmp_path: Path, capsys) -> None:
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--moduli", "0.001", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("roadtex demo: error: --moduli 0.001 MPa is outside the plausible range"), err
+    assert "Traceback" not in err and not (tmp_path / "demo").exists()
