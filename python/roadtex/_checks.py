@@ -87,6 +87,12 @@ def real_values(values: object, name: str, *, masked: str = "refuse") -> object:
 def as_float_array(values: object, name: str, ndim: int) -> np.ndarray:
     """A contiguous float64 array of exactly ``ndim`` dimensions (values are not checked here;
     complex and masked values are refused, see :func:`real_values`)."""
+    if hasattr(values, "heights") and hasattr(values, "dx"):   # a Profile or Surface where arrays are taken
+        kind = type(values).__name__
+        raise InvalidInputError(
+            f"{name} is a roadtex {kind}, where the heights (m) are expected: pass its .heights and .dx (m), "
+            f"e.g. roadtex.contact(p.heights, p.dx, youngs_modulus, mean_pressure); a {kind} with drop-outs "
+            "(NaN) needs conditioning first (roadtex.profiles.conditioning.clean)")
     values = real_values(values, name)
     try:
         array = np.asarray(values, dtype=np.float64)

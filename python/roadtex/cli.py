@@ -9,10 +9,28 @@ import sys
 from pathlib import Path
 
 
+def refused_rubber(command: str, moduli: list[float], pressure: float, remedy: str = "") -> bool:
+    """Prints one error line for each modulus and the pressure (MPa) outside the plausible ranges
+    of tyre rubber (usually a unit mistake); True when any was refused."""
+    from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
+
+    checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in moduli]
+    checks.append(("--pressure", pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
+    refused = [(flag, value, plausible, what) for flag, value, plausible, what in checks
+               if implausible_parameter(value * 1e6, flag, plausible) is not None]
+    for flag, value, (low, high), what in refused:
+        print(f"roadtex {command}: error: {flag} {value:g} MPa is outside the plausible range of {what} "
+              f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2)."
+              f"{remedy}", file=sys.stderr)
+    return bool(refused)
+
+
 def demo(args: argparse.Namespace) -> int:
     """``roadtex demo``: the real pipeline on the built-in archive (or a given manifest), then the report."""
     from roadtex.demo import run_demo
 
+    if refused_rubber("demo", args.moduli, args.pressure):   # as process refuses them (the demo has no override)
+        return 2
     return run_demo(Path(args.out), runs=args.runs, run_length=args.run_length, moduli_mpa=args.moduli,
                     pressure_mpa=args.pressure, manifest_path=args.manifest, benchmark=args.benchmark, quiet=args.quiet)
 
@@ -47,9 +65,8 @@ def process_command(args: argparse.Namespace) -> int:
     """``roadtex process MANIFEST --out DIR``: the bulk job."""
     import warnings
 
-    from roadtex._checks import PLAUSIBLE_MODULUS, PLAUSIBLE_PRESSURE, implausible_parameter
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
-    from roadtex.errors import ImplausibleParameterWarning, MissingDependencyError
+    from roadtex.errors import ImplausibleParameterWarning, JobInterrupted, MissingDependencyError
     from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
 
     if args.quiet:
@@ -62,14 +79,7 @@ def process_command(args: argparse.Namespace) -> int:
             handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(message)s"))
             log.addHandler(handler)
     if not args.allow_implausible:
-        checks = [("--moduli", e, PLAUSIBLE_MODULUS, "tyre rubber's Young's modulus") for e in args.moduli]
-        checks.append(("--pressure", args.pressure, PLAUSIBLE_PRESSURE, "a tyre's mean contact pressure"))
-        refused = [(flag, value, plausible, what) for flag, value, plausible, what in checks
-                   if implausible_parameter(value * 1e6, flag, plausible) is not None]
-        for flag, value, (low, high), what in refused:
-            print(f"roadtex process: error: {flag} {value:g} MPa is outside the plausible range of {what} "
-                  f"({low / 1e6:g} to {high / 1e6:g} MPa). {flag} is in MPa (e.g. --moduli 1 2.5 10 --pressure 0.2); "
-                  "--allow-implausible solves it anyway.", file=sys.stderr)
+        refused = refused_rubber("process", args.moduli, args.pressure, " --allow-implausible solves it anyway.")
         coarse = [(flag, value) for flag, value in (("--dx", args.dx), ("--input-dx", args.input_dx))
                   if value is not None and value > PLAUSIBLE_MAX_DX]
         for flag, value in coarse:
@@ -100,6 +110,9 @@ def process_command(args: argparse.Namespace) -> int:
     except (ManifestError, ArchiveWriteError, MissingDependencyError, ValueError) as exc:
         print(f"roadtex process: error: {exc}", file=sys.stderr)
         return 2
+    except JobInterrupted as stop:
+        print(f"roadtex process: {stop}", file=sys.stderr)
+        return 130   # 128 + SIGINT, as shells report a command stopped by Ctrl-C
     print(f"roadtex process: {summary}")
     width = max((len(name) for name in summary.tables), default=0)
     for name, path in summary.tables.items():
@@ -108,9 +121,36 @@ def process_command(args: argparse.Namespace) -> int:
     if upsampled:
         print(f"roadtex process: warning: {upsampled}", file=sys.stderr)
     if summary.failed_on_record:
-        print(f"roadtex process: {summary.failed_on_record} run(s) failed; the reasons are in "
-              f"{summary.tables.get('errors')}", file=sys.stderr)
+        print(f"roadtex process: {summary.failed_on_record} run(s) failed, by cause (all of them in "
+              f"{summary.tables.get('errors')}):", file=sys.stderr)
+        for line in failure_causes(summary.tables.get("errors")):
+            print(f"  {line}", file=sys.stderr)
     return 1 if summary.failed_on_record else 0
+
+
+def failure_causes(errors_table: Path | None, shown: int = 10) -> list[str]:
+    """The failed runs of errors.parquet grouped by cause (stage, error type and message, the file's
+    name and the numbers in the message aside: 'the run is 0.3 m long' and '0.2 m long' are one
+    cause), most frequent first: one line each with the count and one example file's message."""
+    import re
+
+    import polars as pl
+
+    if errors_table is None or not Path(errors_table).is_file():
+        return []
+    errors = pl.read_parquet(errors_table)
+    groups: dict[tuple[str, str, str], list[dict[str, str]]] = {}
+    for row in errors.iter_rows(named=True):
+        message = str(row["message"] or "")
+        name = Path(str(row["path"] or "")).name
+        generic = re.sub(r"[-+]?\d[\d.,eE+-]*", "#", message.replace(name, "FILE") if name else message)
+        groups.setdefault((str(row["stage"]), str(row["error_type"]), generic), []).append(row)
+    ordered = sorted(groups.items(), key=lambda item: -len(item[1]))
+    lines = [f"{len(rows)} run(s), {stage} ({kind}), e.g. {rows[0]['message']}"
+             for (stage, kind, _), rows in ordered[:shown]]
+    if len(ordered) > shown:
+        lines.append(f"... and {len(ordered) - shown} more cause(s)")
+    return lines
 
 
 #: A file sampled this many times more coarsely than the job's interval is reported as upsampled.
@@ -156,16 +196,27 @@ def error_budget(text: str) -> float | None:
 
 def manifest_command(args: argparse.Namespace) -> int:
     """``roadtex manifest FOLDER --out manifest.csv``: lists a folder's profile files as a manifest."""
+    import polars as pl
+
     from roadtex.archive import ManifestError, build_manifest
-    from roadtex.archive.manifest import unlisted_files
+    from roadtex.archive.manifest import job_output_folders, unlisted_files
 
     try:
         table = build_manifest(args.folder, recursive=not args.no_recursive)
     except ManifestError as exc:
         print(f"roadtex manifest: error: {exc}", file=sys.stderr)
         return 2
-    table.drop([c for c in table.columns if table[c].null_count() == table.height]).write_csv(args.out)
+    # paths relative to the manifest's folder (where roadtex process takes them from): the folder and
+    # its manifest can be moved, or sent, together
+    home = Path(args.out).resolve().parent
+    written = table.with_columns(pl.Series("path", [relative_path(path, home) for path in table["path"]]))
+    written.drop([c for c in written.columns if written[c].null_count() == written.height]).write_csv(args.out)
     print(f"roadtex manifest: {table.height} runs -> {args.out}")
+    outputs = job_output_folders(Path(args.folder), not args.no_recursive)
+    if outputs:
+        names = ", ".join(str(folder.relative_to(args.folder)) for folder in outputs[:5])
+        print(f"roadtex manifest: skipped {len(outputs)} folder(s) holding a roadtex job's outputs (parameters.json, "
+              f"status files), not survey data: {names}{' ...' if len(outputs) > 5 else ''}")
     skipped = unlisted_files(args.folder, recursive=not args.no_recursive)
     if skipped:
         print(f"roadtex manifest: warning: {len(skipped)} file(s) of the folder are not listed:", file=sys.stderr)
@@ -188,6 +239,17 @@ def manifest_command(args: argparse.Namespace) -> int:
         if len(problems) > 10:
             print(f"  ... and {len(problems) - 10} more", file=sys.stderr)
     return 0
+
+
+def relative_path(path: str, folder: Path) -> str:
+    """``path`` relative to ``folder`` with forward slashes (a spreadsheet's and every system's),
+    or as it is where there is no relative path (another drive)."""
+    import os
+
+    try:
+        return Path(os.path.relpath(path, folder)).as_posix()
+    except ValueError:
+        return path
 
 
 def read_problem(path: str, *, surface: bool = False) -> str | None:
@@ -293,16 +355,35 @@ def show_warning(message: Warning | str, category: type[Warning], filename: str,
     print(f"roadtex: warning: {message}", file=sys.stderr)
 
 
+def unrecognized(parser: argparse.ArgumentParser, unknown: list[str]) -> None:
+    """Exits as argparse does (status 2), with the sub-command's usage (not the top level's, which
+    says nothing of its options) and, for each unknown option, the closest known one."""
+    import difflib
+
+    known = [option for action in parser._actions for option in action.option_strings]
+    hints = []
+    for arg in unknown:
+        if arg.startswith("-"):
+            close = difflib.get_close_matches(arg.split("=", 1)[0], known, n=1, cutoff=0.6)
+            if close:
+                hints.append(f"{arg}: did you mean {close[0]}?")
+    parser.error(f"unrecognized arguments: {' '.join(unknown)}{' (' + '; '.join(hints) + ')' if hints else ''}")
+
+
 def main(argv: list[str] | None = None) -> int:
     import warnings
 
     warnings.showwarning = show_warning
     from roadtex._core import __version__
 
-    parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
-    parser.add_argument("--version", action="version", version=f"roadtex {__version__}")
+    # no abbreviations: '--pres 0.3' must not be taken silently as --pressure (nor a later option
+    # sharing the prefix break an old command line)
+    parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.",
+                                     allow_abbrev=False)
+    parser.add_argument("-V", "--version", action="version", version=f"roadtex {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
-    d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report")
+    d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report",
+                            allow_abbrev=False)
     d.add_argument("--out", default="roadtex-output", help="output folder (default roadtex-output)")
     d.add_argument("--manifest", default=None, help="process this archive instead of the built-in one")
     d.add_argument("--runs", type=int, default=2, help="runs per pavement type in the built-in archive (default 2)")
@@ -313,23 +394,29 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(run=demo)
-    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)")
+    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)", allow_abbrev=False)
     p.add_argument("manifest", help="manifest file (CSV or Parquet) listing the runs")
     p.add_argument("--out", required=True, help="output folder")
     _add_processing_arguments(p)
     p.set_defaults(run=process_command)
-    r = commands.add_parser("report", help="HTML report and figures of a processed archive")
+    r = commands.add_parser("report", help="HTML report and figures of a processed archive", allow_abbrev=False)
     r.add_argument("results", help="the output folder of roadtex process")
     r.add_argument("--out", default=None, help="report folder (default RESULTS/report)")
     r.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     r.set_defaults(run=report_command)
-    m = commands.add_parser("manifest", help="list a folder's profile and 3-D surface files as a manifest CSV")
+    m = commands.add_parser("manifest", help="list a folder's profile and 3-D surface files as a manifest CSV", allow_abbrev=False)
     m.add_argument("folder", help="folder with profile and surface files (surfaces get format 'surface')")
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)
-    args = parser.parse_args(argv)
-    return args.run(args)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        unrecognized(commands.choices[args.command], unknown)
+    try:
+        return args.run(args)
+    except KeyboardInterrupt:   # Ctrl-C outside a job's runs (process says how many runs were done)
+        print(f"roadtex {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

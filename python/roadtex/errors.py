@@ -78,6 +78,16 @@ class MissingDependencyError(RoadtexError, ImportError):
     """An optional dependency is needed for what was asked (the message says which extra to install)."""
 
 
+class JobInterrupted(KeyboardInterrupt):
+    """The bulk job was interrupted (Ctrl-C) after ``done`` of ``runs`` runs: the runs finished so
+    far are complete on disk, no temporary file is left, and the same call again resumes. A
+    ``KeyboardInterrupt`` (not a :class:`RoadtexError`), so that code stopping on Ctrl-C still stops."""
+
+    def __init__(self, done: int, runs: int):
+        super().__init__(f"interrupted after {done} of {runs} runs; run the same command again to resume")
+        self.done, self.runs = done, runs
+
+
 class RoadtexWarning(UserWarning):
     """Base of roadtex's warnings: something was computed, but probably not what was meant."""
 
@@ -115,7 +125,7 @@ class ConditioningWarning(RoadtexWarning):
 __all__ = [
     "RoadtexError", "InvalidInputError", "ProfileFormatError", "ManifestError", "ConvergenceError", "SolverError",
     "ClappError", "InternalError", "ArchiveWriteError", "OutputInUseError", "ResultsNotFoundError",
-    "DamagedResultsError", "MissingDependencyError", "RunFailure",
+    "DamagedResultsError", "MissingDependencyError", "RunFailure", "JobInterrupted",
     "RoadtexWarning", "ImplausibleTextureWarning", "ImplausibleParameterWarning", "ConditioningWarning",
     "CoarseSamplingWarning",
     "ErrorBudgetWarning", "UnitConflictWarning",

@@ -95,9 +95,11 @@ def test_cli_refuses_implausible_moduli_and_pressures_naming_the_unit(mixed, tmp
     assert version.returncode == 0 and version.stdout.strip() == f"roadtex {roadtex.__version__}"
 
 
-def test_options_warn_on_implausible_moduli_from_python() -> None:
-    with pytest.warns(roadtex.errors.ImplausibleParameterWarning, match="MPa"):
+def test_options_refuse_implausible_moduli_from_python() -> None:
+    # as strict as the command line (issue 30.6): refused, one message, unless allowed
+    with pytest.raises(roadtex.errors.InvalidInputError, match="MPa") as refused:
         ProcessingOptions(youngs_moduli=(2.5,))
+    assert "allow_implausible=True" in str(refused.value)
 
 
 def test_dask_and_local_tables_are_bit_identical_on_real_data(tmp_path: Path, captif_dir: Path) -> None:

@@ -315,6 +315,8 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
         "refine_across": [None], "model_dy": [None],   # a line run's model grid is along the road only
+        "mpd_spike_rejected": [depth.rejected["spikes"]], "mpd_dropout_rejected": [depth.rejected["dropouts"]],
+        "mpd_rejections": [depth.rejection_note()],
     }, schema=RUN_RUN_SCHEMA)
 
 

@@ -19,6 +19,7 @@ import polars as pl
 
 from roadtex._checks import positive_int, thread_count
 from roadtex._core import __version__
+from roadtex.archive.arrow_schema import table_options
 from roadtex.archive.compute import RunFailure, compute_run, run_stage
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
@@ -39,7 +40,6 @@ from roadtex.archive.schemas import (
     SURFACE_EXAMPLE_SCHEMA,
     TABLES,
     VON_MEIER_SCHEMA,
-    parquet_metadata,
     units,
 )
 from roadtex.archive.store import (
@@ -62,8 +62,10 @@ from roadtex.comparisons.figures import edge_effect, example_comparisons
 from roadtex.errors import (
     CoarseSamplingWarning,
     ErrorBudgetWarning,
+    ImplausibleParameterWarning,
     ImplausibleTextureWarning,
     InvalidInputError,
+    JobInterrupted,
     MissingDependencyError,
     ResultsNotFoundError,
 )
@@ -218,6 +220,8 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
     Raises:
         ManifestError: a bad manifest (before any work starts).
         ArchiveWriteError: the output folder cannot be written.
+        JobInterrupted: Ctrl-C (a KeyboardInterrupt): the runs in flight finish, temporary files
+            are removed, and the same call again resumes.
     """
     options = options or ProcessingOptions()
     threads = thread_count(threads)   # job-wide options: refused before any work, not by every run
@@ -243,24 +247,37 @@ def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *
     runs = table.to_dicts()
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
-    # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
-    # and their own spacings
-    plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
-    resolved = plan.resolved(options)
-    progress = Progress(len(runs), sum(sizes), quiet)
     statuses: dict[str, dict[str, Any]] = {}
-    flags = {"force": force, "retry_failed": retry_failed}
     try:
-        if engine == "local":
-            finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
-        else:
-            finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads, flags)
-        for status, size in finished:
-            statuses[status["run_id"]] = status
-            progress.update(status, size)
-    finally:
-        progress.close()
-    tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
+        # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
+        # and their own spacings
+        with warnings.catch_warnings():
+            if options.allow_implausible:   # asked for: the pilot's solves do not warn either
+                warnings.simplefilter("ignore", ImplausibleParameterWarning)
+            plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads)
+        resolved = plan.resolved(options)
+        progress = Progress(len(runs), sum(sizes), quiet)
+        flags = {"force": force, "retry_failed": retry_failed}
+        try:
+            with warnings.catch_warnings():
+                if options.allow_implausible:   # asked for: the runs' solvers do not warn again, run after run
+                    warnings.simplefilter("ignore", ImplausibleParameterWarning)
+                if engine == "local":
+                    finished = process_local(process_run, runs, sizes, resolved, out, threads, flags)
+                else:
+                    finished = process_dask(process_run, runs, sizes, resolved, out, scheduler, workers, threads,
+                                            flags)
+                for status, size in finished:
+                    statuses[status["run_id"]] = status
+                    progress.update(status, size)
+        finally:
+            progress.close()
+        tables = combine(table, out, resolved, plan=plan, requested=options, study=study)
+    except KeyboardInterrupt:
+        # the runs in flight have finished writing by now (the engines wait for them): what is on
+        # disk is complete, and a rerun resumes from it
+        remove_stale_temporaries(out)
+        raise JobInterrupted(len(statuses), len(runs)) from None
     warn_surfaces_over_budget(tables["runs"], [run["run_id"] for run in runs if is_surface_run(run)],
                               options.error_budget_db)
     warn_plausibility_notes([statuses[run["run_id"]] for run in runs if run["run_id"] in statuses])
@@ -369,26 +386,27 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     written = {}
     for name, files in parts.items():
         path = out / f"{name}.parquet"
-        metadata = parquet_metadata(TABLES[name])
+        metadata = table_options(TABLES[name])
         if files:
             query = with_plan(pl.scan_parquet(files, schema=schemas[name]), name, plan, estimates, surface_ids,
                               own).select(
                 [pl.col(c).cast(t) for c, t in combined[name].items()])
-            write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, metadata=m))
+            write_atomically(path, lambda p, q=query, m=metadata: q.sink_parquet(p, statistics=True, **m))
         else:
             empty = pl.DataFrame(schema=combined[name])
-            write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, metadata=m))
+            write_atomically(path, lambda p, t=empty, m=metadata: t.write_parquet(p, statistics=True, **m))
         written[name] = path
     edge = edge_effect_table(options)
-    write_atomically(out / "edge_effect.parquet", lambda p: edge.write_parquet(p, metadata=parquet_metadata(TABLES["edge_effect"])))
+    write_atomically(out / "edge_effect.parquet",
+                     lambda p: edge.select(list(TABLES["edge_effect"])).write_parquet(p, **table_options(TABLES["edge_effect"])))
     written["edge_effect"] = out / "edge_effect.parquet"
     pilot = (study.select([pl.col(c).cast(t) if c in study.columns else pl.lit(None, dtype=t).alias(c)
                            for c, t in PILOT_SCHEMA.items()])
              if study is not None and study.height else pl.DataFrame(schema=PILOT_SCHEMA))
-    write_atomically(out / "pilot.parquet", lambda p: pilot.write_parquet(p, metadata=parquet_metadata(TABLES["pilot"])))
+    write_atomically(out / "pilot.parquet", lambda p: pilot.write_parquet(p, **table_options(TABLES["pilot"])))
     written["pilot"] = out / "pilot.parquet"
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
-    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, metadata=parquet_metadata(TABLES["errors"])))
+    write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, **table_options(TABLES["errors"])))
     written["errors"] = out / "errors.parquet"
     write_json(out / "parameters.json", {
         "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,

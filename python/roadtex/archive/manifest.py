@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 import errno
 import io
+import json
 import os
 import warnings
 from pathlib import Path
@@ -13,8 +14,15 @@ from typing import Any, Sequence
 import polars as pl
 
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
+from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError, RoadtexWarning
-from roadtex.profiles.plausibility import coarse_sampling, implausible_texture, judged_once, stated_distance_unit
+from roadtex.profiles.plausibility import (
+    coarse_sampling,
+    implausible_surface,
+    implausible_texture,
+    judged_once,
+    stated_distance_unit,
+)
 from roadtex.profiles.readers import file_head, guess_format, read_profile
 from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
@@ -27,10 +35,48 @@ MAX_RUN_ID_BYTES = 200
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
 
+def json_has(path: Path, key: str) -> bool:
+    """Whether ``path`` is a JSON object holding ``key`` (False for anything else)."""
+    try:
+        return path.is_file() and key in json.loads(path.read_text())
+    except (OSError, ValueError, TypeError):
+        return False
+
+
+def is_job_output(folder: Path) -> bool:
+    """Whether ``folder`` holds a roadtex job's outputs (its ``parameters.json``, a run's
+    ``status.json``, or run folders with status files: a job interrupted before its tables), which
+    are no survey data: listing them would make a job of its own Parquet tables."""
+    if json_has(folder / "parameters.json", "options_fingerprint") or json_has(folder / STATUS_FILE, "fingerprint"):
+        return True
+    runs = folder / "runs"
+    return runs.is_dir() and any(json_has(status, "fingerprint") for status in runs.glob(f"*/{STATUS_FILE}"))
+
+
+def job_output_folders(root: Path, recursive: bool = True) -> list[Path]:
+    """The folders under ``root`` (``root`` itself included) that hold a job's outputs
+    (:func:`is_job_output`), outermost only: :func:`build_manifest` skips them."""
+    if is_job_output(root):
+        return [root]
+    found = []
+    for folder, subfolders, _ in os.walk(root) if recursive else ():
+        keep = []
+        for name in sorted(subfolders):
+            if is_job_output(Path(folder) / name):
+                found.append(Path(folder) / name)
+            else:
+                keep.append(name)
+        subfolders[:] = keep   # not descended into
+    return found
+
+
 def candidate_files(root: Path, recursive: bool) -> list[Path]:
-    """The files of a survey folder :func:`build_manifest` considers: not hidden, not a manifest."""
+    """The files of a survey folder :func:`build_manifest` considers: not hidden, not a manifest,
+    not in a folder holding a job's outputs (:func:`job_output_folders`)."""
+    skipped = job_output_folders(root, recursive)
     return sorted(p for p in (root.rglob("*") if recursive else root.glob("*"))
-                  if p.is_file() and not p.name.lower().startswith("manifest") and not p.name.startswith("."))
+                  if p.is_file() and not p.name.lower().startswith("manifest") and not p.name.startswith(".")
+                  and not any(p.is_relative_to(folder) for folder in skipped))
 
 
 def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) -> list[str]:
@@ -71,7 +117,9 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     Columns: ``path`` (required; relative paths are taken from the manifest's folder or
     ``base_dir``), optional ``run_id`` (default: the file name without suffix; must be unique),
     ``format`` (as for :func:`roadtex.read_profile`; default: guessed; ``surface`` makes the run a
-    3D surface run read by :func:`roadtex.read_surface`, as does a ``.crg`` file), the metadata columns
+    3D surface run read by :func:`roadtex.read_surface`, as does a ``.crg`` file; left empty, a file
+    that :func:`~roadtex.surfaces.readers.is_surface_file` finds a surface gets ``surface``, as
+    :func:`build_manifest` gives it), the metadata columns
     :data:`METADATA_COLUMNS` (``speed_kmh`` in km/h), reader options per run
     (:data:`READER_COLUMNS`: ``distance_unit``, ``height_unit``, ``delimiter``, ``decimal``, ``dx``
     in m for heights-only files, ...; see :func:`roadtex.read_profile`; ``dy`` in m across the road
@@ -193,7 +241,12 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                 f"long; at most {MAX_RUN_ID_BYTES} (it names the run's output folder, and file systems "
                                 "allow 255 bytes a name)")
         seen[rid] = index
-    return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids))
+    # a surface file listed without a format (a hand-written manifest: a 2-D .npy with dx and dy) is
+    # a surface run, as roadtex manifest would have marked it
+    formats = [fmt if fmt is not None or not is_surface_file(path) else "surface"
+               for fmt, path in zip(table["format"].to_list(), paths)]
+    return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids),
+                              pl.Series("format", formats, dtype=pl.String))
 
 
 def read_text_manifest(path: Path) -> pl.DataFrame:
@@ -261,7 +314,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
 
     Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg are listed, except
-    hidden files and files named ``manifest*`` (a manifest kept beside its data). 3-D surfaces
+    hidden files, files named ``manifest*`` (a manifest kept beside its data) and folders holding a
+    job's outputs (:func:`job_output_folders`: ``roadtex process --out`` inside the survey folder). 3-D surfaces
     (:func:`roadtex.surfaces.readers.is_surface_file`: OpenCRG, a 2-D ``.npy``, a table with x,
     y and z columns) get ``format`` "surface" and are processed as surface runs. With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
@@ -275,6 +329,9 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     root = Path(folder)
     if not root.is_dir():
         raise ManifestError(f"{root} is not a folder")
+    if is_job_output(root):
+        raise ManifestError(f"{root} holds a roadtex job's outputs (parameters.json, runs/*/status.json), not survey "
+                            "data: give the folder of the profile files")
     files = [p for p in candidate_files(root, recursive) if p.suffix.lower() in PROFILE_SUFFIXES]
     if not files:
         others = unlisted_files(root, recursive=recursive)
@@ -292,7 +349,11 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
             implausible = coarse = None
             try:
                 if surface:
-                    metadata = read_surface(path).metadata
+                    with judged_once():   # judged below as the job judges it, and warned about once
+                        read = read_surface(path)
+                    metadata = read.metadata
+                    implausible = implausible_surface(read.heights, read.dx, path.name,
+                                                      interval_stated=stated_distance_unit(metadata) is not None)
                 else:
                     with judged_once():   # judged below, and warned about once
                         profile = read_profile(path)

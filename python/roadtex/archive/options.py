@@ -13,10 +13,10 @@ from roadtex._checks import (
     PLAUSIBLE_MODULUS,
     PLAUSIBLE_PRESSURE,
     finite_number,
+    implausible_parameter,
     poisson_ratio,
     positive,
     positive_int,
-    warn_if_implausible_parameter,
 )
 from roadtex._core import __version__
 from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
@@ -103,12 +103,16 @@ class ProcessingOptions:
             normative method; see :func:`roadtex.spectra.band_levels`).
         speed_kmh: vehicle speed for the band frequencies when the manifest has no ``speed_kmh``.
         keep_profiles: also write the enveloped profiles and pressures (large).
-        allow_implausible: process runs whose heights or sampling interval cannot be road texture
-            in metres (usually a unit mistake; see :func:`roadtex.profiles.plausibility.implausible_texture`)
-            as read, with a warning, instead of refusing them. A run whose distance unit is certain
-            (OpenCRG, a unit its header states, or ``distance_unit`` given) is never refused for a
-            coarse interval alone: it is processed with a
-            :class:`~roadtex.errors.CoarseSamplingWarning`, its unresolved bands not reported.
+        allow_implausible: the command line's ``--allow-implausible``: (1) process runs whose
+            heights or sampling interval cannot be road texture in metres (usually a unit mistake;
+            see :func:`roadtex.profiles.plausibility.implausible_texture`) as read, with a warning,
+            instead of refusing them; a run whose distance unit is certain (OpenCRG, a unit its
+            header states, or ``distance_unit`` given) is never refused for a coarse interval
+            alone: it is processed with a :class:`~roadtex.errors.CoarseSamplingWarning`, its
+            unresolved bands not reported; (2) solve moduli outside 0.1 to 100 MPa and pressures
+            outside 0.02 to 3 MPa (given in Pa), which are refused by default (MPa given as Pa is
+            the usual cause). Not part of the fingerprint: it changes nothing a processed run
+            computes (a run it refused stays on record as failed until ``--retry-failed``).
         reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
             ``height_unit``, ``delimiter``, ``decimal``, ``dx`` in m, ...); manifest columns of the
             same names override them per run.
@@ -184,16 +188,24 @@ class ProcessingOptions:
             raise InvalidInputError(f"reader_defaults has unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
         object.__setattr__(self, "reader_defaults", {k: v for k, v in sorted(self.reader_defaults.items()) if v is not None})
         check_reader_defaults(self.reader_defaults)
-        for modulus in moduli:
-            warn_if_implausible_parameter(modulus, "youngs_moduli", PLAUSIBLE_MODULUS)
-        warn_if_implausible_parameter(self.mean_pressure, "mean_pressure", PLAUSIBLE_PRESSURE)
+        reasons = [implausible_parameter(e, "youngs_moduli", PLAUSIBLE_MODULUS) for e in moduli]
+        reasons.append(implausible_parameter(self.mean_pressure, "mean_pressure", PLAUSIBLE_PRESSURE))
+        if any(reasons) and not self.allow_implausible:
+            # one refusal before any work, as the command line's: a warning per value, and again per
+            # run, went unread while the job wrote normal-looking tables (contact fraction 1.0)
+            raise InvalidInputError(
+                f"{'; '.join(r for r in reasons if r)} ProcessingOptions takes SI units (Pa: youngs_moduli="
+                "(1e6, 2e6, 5e6, 1e7), mean_pressure=2e5); allow_implausible=True solves them anyway (the command "
+                "line's --allow-implausible)")
 
     def fingerprint(self) -> str:
         """SHA-256 of the options and the roadtex version: equal fingerprints give equal results.
 
         ``group_model_dx`` is left out: a run depends only on its own group's model grid, which
         its run fingerprint holds (:func:`roadtex.archive.store.run_fingerprint`), so a change in
-        one group's pilot does not make every other group's runs stale."""
-        options = {k: v for k, v in dataclasses.asdict(self).items() if k != "group_model_dx"}
+        one group's pilot does not make every other group's runs stale. ``allow_implausible`` is
+        left out too: it changes no result of a run that was processed (a run it refused stays on
+        record as failed until retried, ``--retry-failed``)."""
+        options = {k: v for k, v in dataclasses.asdict(self).items() if k not in ("group_model_dx", "allow_implausible")}
         payload = json.dumps({"options": options, "roadtex": __version__}, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()

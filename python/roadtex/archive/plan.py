@@ -34,6 +34,7 @@ from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
 from roadtex.profiles.plausibility import implausible_texture, judged_once, stated_distance_unit
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import READ_OPTIONS, read_profile
+from roadtex.spectra.bands import nominal_label
 
 #: Runs read per (device, pavement) group for the pilot (spread evenly over the group).
 PILOT_RUNS_PER_GROUP = 3
@@ -293,9 +294,11 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     within = all(c.within_budget for c in choices)
     worst = max(c.worst_error_db for c in choices)
     if not within:
-        missed = "; ".join(f"{name}: {g.worst_error_db:.3g} dB" for name, g in group_errors.items() if not g.within_budget)
+        missed = "; ".join(missed_budget(name, g, dx) for name, g in group_errors.items() if not g.within_budget)
+        where = (f"in every group at the given dx of {options.dx * 1e3:g} mm" if options.dx is not None
+                 else "at the data's sampling of every group")
         warnings.warn(
-            f"the error budget of {options.error_budget_db:g} dB cannot be met at the data's sampling of every group: "
+            f"the error budget of {options.error_budget_db:g} dB cannot be met {where}: "
             f"the smallest estimated error in the tyre/road noise bands is {missed}; the job runs at the cheapest "
             "setting near that floor and states the error of every band (bands.parquet level_error_db)",
             ErrorBudgetWarning, stacklevel=3)
@@ -313,6 +316,20 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
         pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
         failed_pilots=failed, unread_runs=unread)
     return plan, study
+
+
+def missed_budget(name: str, group: "GroupError", dx: float) -> str:
+    """A group's smallest error in the budget bands, in words: "name: 0.4 dB", or, where some
+    budget bands are not reported at ``dx`` (m; too coarse to resolve their wavelengths, so no
+    error can be stated: an infinite estimate), which bands and the largest error of the others."""
+    if np.isfinite(group.worst_error_db):
+        return f"{name}: {group.worst_error_db:.3g} dB"
+    unreported = sorted(b for b, e in group.band_error_db.items() if not np.isfinite(e))
+    finite = [e for e in group.band_error_db.values() if np.isfinite(e)]
+    span = nominal_label(unreported[0]) + ("" if len(unreported) == 1 else f" to {nominal_label(unreported[-1])}")
+    others = f"; the bands it reports err by up to {max(finite):.3g} dB" if finite else ""
+    return (f"{name}: no error can be stated for {len(unreported)} of its budget bands ({span} mm), which dx "
+            f"{dx * 1e3:g} mm is too coarse to report{others}")
 
 
 def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:

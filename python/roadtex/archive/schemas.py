@@ -119,6 +119,9 @@ RUN_COLUMNS: Columns = {
     "mpd_valid": (pl.Boolean(), None),            # ISO validity: at least half the baselines valid
     "mpd_valid_baselines": (pl.Int64(), "count"),
     "mpd_baselines": (pl.Int64(), "count"),
+    "mpd_spike_rejected": (pl.Int64(), "count"),  # baselines rejected by ISO 13473-1's spike criterion (> 5 %)
+    "mpd_dropout_rejected": (pl.Int64(), "count"),  # ... by its drop-out criterion (> 10 %); a baseline may fail both
+    "mpd_rejections": (pl.String(), None),        # why, in words, with the failing shares (null: none rejected)
     "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
                                                    # (surface runs: both models, from their areal pilot)
     "within_budget": (pl.Boolean(), None),        # null without budget

@@ -67,7 +67,10 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
         with open(temporary, "rb+") as stream:
             os.fsync(stream.fileno())
         os.replace(temporary, path)
-    except Exception as exc:
+    except BaseException as exc:
+        temporary.unlink(missing_ok=True)
+        if not isinstance(exc, Exception):   # Ctrl-C while writing: no temporary left behind, and it stops
+            raise
         # polars reports a full disk as its own ComputeError ("... os error 28"), not OSError:
         # any failure to write output is a write failure, and stops the job.
         code = exc.errno if isinstance(exc, OSError) else None

@@ -442,6 +442,10 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
         "mpd_baselines": [int(sum(int(d.segments.height) for d in depths))],
         "refine": [refine], "refine_across": [refine], "model_dx": [surface.dx / refine],
         "model_dy": [surface.dy / refine],
+        "mpd_spike_rejected": [sum(d.rejected["spikes"] for d in depths)],
+        "mpd_dropout_rejected": [sum(d.rejected["dropouts"] for d in depths)],
+        "mpd_rejections": ["; ".join(f"line {i}: {note}" for i, d in enumerate(depths)
+                                     for note in [d.rejection_note()] if note) or None],
     }, schema=RUN_RUN_SCHEMA)
 
 

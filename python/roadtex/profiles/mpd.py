@@ -57,6 +57,35 @@ class MpdResult:
         """MSD of every segment (m), valid or not."""
         return self.segments.get_column("msd").to_numpy()
 
+    @property
+    def rejected(self) -> dict[str, int]:
+        """How many segments (baselines) each ISO 13473-1 criterion rejected: ``"spikes"`` (more
+        than ``max_spike_fraction`` of the samples flagged by the spike test) and ``"dropouts"``
+        (more than ``max_dropout_fraction`` of the raw readings missing); a segment failing both
+        counts in both."""
+        spikes, dropouts = self.segments["spike_fraction"], self.segments["dropout_fraction"]
+        return {"spikes": int((spikes > self.parameters.get("max_spike_fraction", 0.05)).sum()),
+                "dropouts": int((dropouts > self.parameters.get("max_dropout_fraction", 0.10)).sum())}
+
+    def rejection_note(self) -> str | None:
+        """Why segments were rejected, in words, with the range of the failing share for each
+        criterion (e.g. "14 of 18 baselines rejected: 14 by the spike test (5.5 to 16.5 % of the
+        samples flagged, more than 5 %)"); None when every segment is valid."""
+        total, valid = self.segments.height, self.valid_segments
+        if valid == total:
+            return None
+        parts = []
+        for column, limit_name, default, what in (
+                ("spike_fraction", "max_spike_fraction", 0.05, "the spike test (%s of the samples flagged"),
+                ("dropout_fraction", "max_dropout_fraction", 0.10, "drop-outs (%s of the readings missing")):
+            limit = float(self.parameters.get(limit_name, default))  # type: ignore[arg-type]
+            failing = self.segments[column].filter(self.segments[column] > limit)
+            if failing.len():
+                low, high = float(failing.min()) * 100, float(failing.max()) * 100  # type: ignore[arg-type]
+                span = f"{low:.3g} %" if low == high else f"{low:.3g} to {high:.3g} %"
+                parts.append(f"{failing.len()} by {what % span}, more than {limit * 100:g} %)")
+        return f"{total - valid} of {total} baselines rejected: {'; '.join(parts)}"
+
 
 def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: float = 0.5e-3,
         segment_length: float = 0.1, lowpass_wavelength: float | None = 2.4e-3,

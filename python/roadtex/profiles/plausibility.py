@@ -15,7 +15,7 @@ from contextvars import ContextVar
 import numpy as np
 
 from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning
-from roadtex.profiles.conditioning import gross_outliers
+from roadtex.profiles.conditioning import OUTLIER_MIN_DISTANCE, gross_outliers
 from roadtex.profiles.trend import remove_lines
 
 PLAUSIBLE_PEAK_TO_VALLEY = 1.0
@@ -131,32 +131,36 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     # In a file, drop-out codes (a -850 mm reading among mm of texture) say nothing about the
     # unit, and conditioning removes them before anything else: judged without them. Heights
     # handed to a solver are judged as they are (a code there is solved as a 850 mm pit).
-    codes = gross_outliers(rows) if (measured if skip_codes is None else skip_codes) else None
-    if codes is not None and codes.any():
-        rows = np.where(codes, np.nan, rows)
+    # (no row spanning more than the outliers' least distance holds a code: the medians are skipped)
+    if (measured if skip_codes is None else skip_codes) and may_hold_codes(rows):
+        codes = gross_outliers(rows)
+        if codes.any():
+            rows = np.where(codes, np.nan, rows)
     n = rows.shape[1]
     if rows.size == 0 or n < 2 or not (np.isfinite(dx) and dx > 0):
         return None
     # A row without two neighbouring readings says nothing: judged as flat and never flagged (so
     # that no NaN-only slice reaches numpy's nan-functions, whose warnings would need a
     # process-wide filter, which run threads must not touch).
-    judgeable = ~np.all(np.isnan(np.diff(rows, axis=1)), axis=1)
+    steps = np.diff(rows, axis=1)
+    judgeable = ~np.all(np.isnan(steps), axis=1)
     if not judgeable.any():
         return None
-    rows = np.where(judgeable[:, None], rows, 0.0)
+    if not judgeable.all():
+        rows = np.where(judgeable[:, None], rows, 0.0)
+        steps = np.where(judgeable[:, None], steps, 0.0)
     with np.errstate(all="ignore"):
+        slopes = np.abs(steps) / dx
         if np.isnan(rows).any():
             centred = by_stretches(rows, dx, less_medians)
             peak_to_valley = np.nanmax(centred, axis=1) - np.nanmin(centred, axis=1)
             rms = np.sqrt(np.nanmean(centred**2, axis=1))
-            median_slope = np.nanmedian(np.abs(np.diff(rows, axis=1)), axis=1) / dx
         else:
             detrended = by_stretches(rows, dx, lambda block: remove_lines(block)[0])
             peak_to_valley = detrended.max(axis=1) - detrended.min(axis=1)
             rms = np.sqrt(np.mean(detrended**2, axis=1))
-            median_slope = np.median(np.abs(np.diff(rows, axis=1)), axis=1) / dx
-        large = ((peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS)
-                 | (median_slope > PLAUSIBLE_MEDIAN_SLOPE))
+        steep = median_above(slopes, PLAUSIBLE_MEDIAN_SLOPE)
+        large = (peak_to_valley > PLAUSIBLE_PEAK_TO_VALLEY) | (rms > PLAUSIBLE_RMS) | steep
         large &= judgeable
         small = (rms < PLAUSIBLE_MIN_RMS) & ~large & judgeable if measured else np.zeros_like(large)
     coarse = measured and not interval_stated and dx > PLAUSIBLE_MAX_DX
@@ -164,6 +168,8 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
     if not bad.any():
         return None
     first = int(np.argmax(bad))
+    with np.errstate(all="ignore"):   # the first bad row's median slope, for the message only
+        median_slope = {first: float(np.nanmedian(slopes[first]))}
     length = int(round(JUDGED_STRETCH / dx))
     trend = ("linear trend removed" if length < MIN_STRETCH_POINTS or n < 2 * length
              else f"linear trend removed per {JUDGED_STRETCH:g} m stretch")
@@ -180,6 +186,43 @@ def implausible_texture(heights: np.ndarray, dx: float, name: str, *, row: str =
             f"and median slope {median_slope[first]:.3g} are implausible for a road texture profile "
             f"(roadtex warns above {PLAUSIBLE_PEAK_TO_VALLEY:g} m, {PLAUSIBLE_RMS:g} m and {PLAUSIBLE_MEDIAN_SLOPE:g}). "
             "Heights and dx must be in metres: were the heights given in millimetres?")
+
+
+def implausible_surface(heights: np.ndarray, dx: float, name: str, *, interval_stated: bool = False) -> str | None:
+    """The bulk job's judgement of a surface run's heights (m, rows across the road), shared by
+    ``roadtex manifest`` so that the two agree: every valid reading, drop-out codes aside (as
+    conditioning removes them), judged as one row (:func:`implausible_texture`); "no valid
+    reading" when none is left, else None when plausible."""
+    z = np.asarray(heights, dtype=np.float64)
+    codes = gross_outliers(z.reshape(-1)).reshape(z.shape)
+    finite = z[np.isfinite(z) & ~codes]
+    return (implausible_texture(finite[None, :], dx, name, interval_stated=interval_stated) if finite.size
+            else "no valid reading")
+
+
+def may_hold_codes(rows: np.ndarray) -> bool:
+    """Whether any row of ``rows`` (m) spans more than :data:`OUTLIER_MIN_DISTANCE` (NaN aside):
+    only then can :func:`~roadtex.profiles.conditioning.gross_outliers` find one (a reading is an
+    outlier at least that far from its row's median), and its two medians per row are worth their
+    cost (half of the judgement's time on 2 million points)."""
+    with np.errstate(invalid="ignore"):
+        span = np.fmax.reduce(rows, axis=1) - np.fmin.reduce(rows, axis=1)
+    return bool(np.any(~(span <= OUTLIER_MIN_DISTANCE)))   # NaN (an empty row) or inf: let it judge
+
+
+def median_above(values: np.ndarray, threshold: float) -> np.ndarray:
+    """Per row, whether the median of the row's valid (non-NaN) ``values`` exceeds ``threshold``,
+    exactly as ``np.nanmedian(values, axis=1) > threshold``, by counting instead of sorting (a
+    tenth of the time): with m valid values of which c exceed the threshold, the median exceeds
+    it when c >= m // 2 + 1, and not when c < (m + 1) // 2; only an even m with c = m / 2 (the
+    two middle values on either side) needs the median itself. Rows need at least one valid value."""
+    valid = np.count_nonzero(~np.isnan(values), axis=1)
+    above = np.count_nonzero(values > threshold, axis=1)
+    result = above >= valid // 2 + 1
+    tied = (valid % 2 == 0) & (above == valid // 2)
+    if tied.any():
+        result[tied] = np.nanmedian(values[tied], axis=1) > threshold
+    return result
 
 
 def by_stretches(rows: np.ndarray, dx: float, detrend: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:

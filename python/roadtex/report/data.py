@@ -76,6 +76,36 @@ def legend_outside(fig, ax=None, **kwargs):
     return fig.legend(list(handles.values()), list(handles), loc="outside right upper", **kwargs)
 
 
+#: The legend entry of the bands marked by :func:`mark_over_budget`.
+OVER_BUDGET_LABEL = "band whose stated error exceeds the budget"
+
+
+def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None) -> dict[str, set[int]]:
+    """Per group (:meth:`Results.run_groups`), the bands whose stated numerical error
+    (bands.parquet ``level_error_db``) exceeds the job's error budget in any of the group's runs:
+    their levels may be off by more than the budget, and every figure drawing them marks them.
+    Empty without a budget or without error estimates."""
+    budget = results.options.get("error_budget_db")
+    table = results.bands if bands is None else bands
+    if budget is None or "level_error_db" not in table.columns:
+        return {}
+    over = (table.filter(pl.col("level_error_db") > budget).select("run_id", "band").unique()
+            .join(results.run_groups(), on="run_id", how="left")
+            .with_columns(pl.col("group").fill_null(pl.col("run_id"))))
+    marked: dict[str, set[int]] = {}
+    for group, band in over.select("group", "band").iter_rows():
+        marked.setdefault(str(group), set()).add(int(band))
+    return marked
+
+
+def mark_over_budget(ax: Any, positions: list[float]) -> None:
+    """Hatches the band positions ``positions`` (x, one unit wide) of ``ax``: levels whose stated
+    error exceeds the budget (labelled :data:`OVER_BUDGET_LABEL` once, for the legend)."""
+    for index, x in enumerate(sorted(positions)):
+        ax.axvspan(x - 0.5, x + 0.5, facecolor="none", edgecolor="#d62728", hatch="///", lw=0, alpha=0.5, zorder=0,
+                   label=OVER_BUDGET_LABEL if index == 0 else None)
+
+
 def energetic_mean(levels: pl.Expr) -> pl.Expr:
     """Mean of levels in power (dB): 10 lg(mean 10^(L/10))."""
     return 10.0 * (10.0 ** (levels / 10.0)).mean().log10()

@@ -97,8 +97,9 @@ FIGURES: dict[str, str] = {
         "(sampling interval dx, model grid k times finer than the data's, solver tolerance tol) the error-budget "
         "pilot evaluated, each point labelled dx (mm)×k, its measured solve time per km of road (every modulus) "
         "against its worst estimated level error in the tyre/road noise bands; the group's chosen (dx, k, tol) "
-        "starred, the reference (the data's grid refined K times, the converged answer) boxed, the budget "
-        "dashed. The pilot chooses "
+        "starred, the reference (the data's grid refined K times, the converged answer, at its own estimated "
+        "error) boxed, settings whose dx does not report every budget band as triangles at the right edge, the "
+        "budget dashed. The pilot chooses "
         "by solver work (iterations × N log₂ N), which the machine's load does not move; the times shown are "
         "measured."),
     "speed_vs_error": "Solver speed against error (from the benchmark data).",
@@ -188,7 +189,7 @@ def modulus_column(e: float) -> str:
 
 def run_table(results: Results) -> pl.DataFrame:
     """The report's main table: per run, length (m), MPD (mm; null where undefined) and whether it
-    is valid (ISO 13473-1: half the baselines valid), and per E the
+    is valid (ISO 13473-1: half the baselines valid) with why baselines were rejected, and per E the
     contact fraction (%) and the mean texture level of the original profile (dB re 1 µm, energetic
     mean over the run's reported bands and segments)."""
     seg = results.segments
@@ -199,6 +200,9 @@ def run_table(results: Results) -> pl.DataFrame:
                                (pl.col("mpd").fill_nan(None) * MM).alias("MPD (mm)"),
                                pl.when(pl.col("mpd_valid")).then(pl.lit("yes")).otherwise(pl.lit("no"))
                                .alias("MPD valid"))
+    if "mpd_rejections" in results.runs.columns:   # why baselines were rejected (absent from older jobs' tables)
+        wide = wide.join(results.runs.select("run_id", pl.col("mpd_rejections").fill_null("none")
+                                             .alias("MPD baselines rejected")), on="run_id", how="left")
     if results.group_column() != "run_id":
         groups = results.run_groups().rename({"group": results.group_column()})
         wide = groups.join(wide, on="run_id", how="right").select("run_id", pl.exclude("run_id"))

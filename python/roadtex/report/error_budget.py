@@ -111,8 +111,9 @@ def fig_setting_speed_vs_error(plt, results: Results):
     (s/km) against the worst level error in the budget bands (dB), both logarithmic, one line per
     tol through its (dx, k) candidates from the coarsest model grid to the finest, each point
     labelled "dx×k" (mm); the group's chosen (dx, k, tol) a star, the reference (the data's grid
-    refined K times, tol 10⁻¹⁰) a square, the budget a dashed vertical line. Without a pilot, one
-    empty pair of axes saying why."""
+    refined K times, tol 10⁻¹⁰, at its own estimated error) a square, settings without an error in
+    every budget band a triangle at the right edge, the budget a dashed vertical line. Without a
+    pilot, one empty pair of axes saying why."""
     reason = pilot_state(results)
     if reason is not None:
         fig, ax = plt.subplots(figsize=(7.5, 3.6), layout="constrained")
@@ -129,7 +130,7 @@ def fig_setting_speed_vs_error(plt, results: Results):
     colour_of = {t: COLOURS[i % len(COLOURS)] for i, t in enumerate(tols)}
     columns = min(3, len(groups))
     rows = int(np.ceil(len(groups) / columns))
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns + 2.4, 3.6 * rows + 0.3), squeeze=False,
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns + 4.2, 3.6 * rows + 0.9), squeeze=False,
                              sharex=True, sharey=True, layout="constrained")
     for ax in axes.ravel()[len(groups):]:
         ax.set_visible(False)
@@ -151,17 +152,35 @@ def fig_setting_speed_vs_error(plt, results: Results):
         if reference.height:
             ax.scatter(reference["worst_error_db"], reference["seconds_per_km"], s=90, marker="s",
                        facecolors="none", edgecolors="0.25", lw=1.2, zorder=4, label="reference (the data's grid refined K times)")
+        unreported = mine.filter(~(pl.col("worst_error_db").is_finite() & (pl.col("worst_error_db") > 0)))
+        if unreported.height:
+            # settings whose dx does not report every budget band have no finite worst error: drawn at
+            # the right edge (their time is measured), so the panel shows every setting evaluated
+            edge = ax.get_yaxis_transform()
+            ax.scatter([1.0] * unreported.height, unreported["seconds_per_km"], transform=edge, marker=">", s=30,
+                       color="0.45", clip_on=False, zorder=4, label="not every budget band reported at its dx")
+            for row in unreported.iter_rows(named=True):
+                ax.annotate(point_label(row["dx"], row["refine"]), (1.0, row["seconds_per_km"]), xycoords=edge,
+                            xytext=(-4, 3), textcoords="offset points", fontsize=6, color="0.35", ha="right")
         chosen = drawn.filter(pl.col("chosen"))
         if chosen.height:
             ax.scatter(chosen["worst_error_db"], chosen["seconds_per_km"], s=160, marker="*", color="#d62728",
                        edgecolors="k", lw=0.6, zorder=5, label="chosen setting", gid="chosen")
         if budget is not None:
             ax.axvline(budget, color="k", ls="--", lw=1.0, label=f"error budget ({plain(budget)} dB)")
-        hidden = mine.height - drawn.height
-        if hidden:
-            ax.text(0.02, 0.02, f"{hidden} setting(s) not drawn: a budget band not reported at their dx",
-                    transform=ax.transAxes, fontsize=7, color="0.35")
-        ax.set_title("\n".join([*textwrap.wrap(str(group), 45), *setting_lines(mine)]), fontsize=9)
+        finest = mine.filter(pl.col("reference"))
+        if mine.select("dx", "refine").unique().height == 1 and finest.height:
+            # one grid tried: say why the panel holds so few points, and what they mean
+            floor = finest["worst_error_db"][0]
+            verdict = (f"already {plain(floor)} dB, over the budget: a coarser dx would only add to it"
+                       if budget is not None and floor > budget else f"{plain(floor)} dB")
+            note = (f"{mine.height} setting(s), one dx ({plain(finest['dx'][0] * MM)} mm, the data's): its error "
+                    f"at the finest tolerance is {verdict}; only the tolerance was varied")
+        else:
+            note = ""
+        # the note under the title, where no point can lie
+        ax.set_title("\n".join([*textwrap.wrap(str(group), 45), *setting_lines(mine), *textwrap.wrap(note, 40)]),
+                     fontsize=9)
         ax.set(xscale="log", yscale="log")
         ax.margins(x=0.12, y=0.12)
     plain_log_axes(axes[0, 0])

@@ -9,7 +9,17 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, PRESSURE_DB, TEXTURE_DB, Results, energetic_mean, legend_outside, modulus_label
+from roadtex.report.data import (
+    COLOURS,
+    PRESSURE_DB,
+    TEXTURE_DB,
+    Results,
+    energetic_mean,
+    legend_outside,
+    mark_over_budget,
+    modulus_label,
+    over_budget_bands,
+)
 from roadtex.spectra.analysis import band_regressions
 from roadtex.spectra.bands import OCTAVE_BANDS, nominal_label
 
@@ -39,7 +49,7 @@ def hatch_limited(ax, bands: set[int], position: dict[int, int]) -> None:
     """A hatched span behind each sampling-limited band (gid "sampling_limited"): its contact
     levels are bounded by the data's resolution, not by the solver."""
     for band in sorted(b for b in bands if b in position):
-        ax.axvspan(position[band] - 0.5, position[band] + 0.5, facecolor="none", edgecolor="0.75", hatch="///",
+        ax.axvspan(position[band] - 0.5, position[band] + 0.5, facecolor="none", edgecolor="0.75", hatch="\\\\\\",
                    lw=0.0, zorder=0, label=LIMITED_LABEL, gid="sampling_limited")
 
 
@@ -60,10 +70,13 @@ def fig_texture_spectra(plt, results: Results):
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = enveloped[group].unique(maintain_order=True).to_list()
     limited = sampling_limited(results)
+    over = over_budget_bands(results)
     fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
                              layout="constrained")
     for column, name in enumerate(groups):
         top, bottom = axes[0, column], axes[1, column]
+        for ax in (top, bottom):
+            mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
         base = original.filter(pl.col(group) == name)
         top.plot([position[b] for b in base["band"]], base["texture_level"], color="0.2", lw=1.6, label="original")
         for colour, e in zip(COLOURS, results.moduli):
@@ -90,9 +103,11 @@ def fig_pressure_spectra(plt, results: Results):
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = spectra[group].unique(maintain_order=True).to_list()
     limited = sampling_limited(results)
+    over = over_budget_bands(results)
     fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
                              layout="constrained")
     for ax, name in zip(axes[0], groups):
+        mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
         for colour, e in zip(COLOURS, results.moduli):
             rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
             ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
@@ -149,7 +164,14 @@ def fig_pressure_vs_texture(plt, results: Results):
                              layout="constrained")
     for ax in axes.ravel()[len(band_list):]:
         ax.set_visible(False)
+    # an octave holds the third octaves n-1, n, n+1: marked when one of them exceeds the budget in any run
+    over = set().union(*over_budget_bands(results).values())
+    kind = results.options.get("band_kind", "third_octave")
     for ax, band in zip(axes.ravel(), band_list):
+        if over & ({band - 1, band, band + 1} if kind == "third_octave" else {band}):
+            ax.patch.set_facecolor("#fde8e8")
+            ax.text(0.02, 0.98, "stated error exceeds the budget", transform=ax.transAxes, va="top", fontsize=7,
+                    color="#d62728", gid="over_budget")
         for colour, e in zip(COLOURS, results.moduli):
             pts = octaves.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
             ax.scatter(pts["enveloped_level"], pts["pressure_level"], s=12, color=colour, label=modulus_label(e))

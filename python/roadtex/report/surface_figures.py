@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, MM, Results, legend_outside, modulus_label
+from roadtex.report.data import COLOURS, MM, Results, legend_outside, mark_over_budget, modulus_label, over_budget_bands
 
 #: Captions of the 3D-surface figures (after the seed's figures; drawn only when the results hold areal rows).
 SURFACE_FIGURES: dict[str, str] = {
@@ -95,7 +95,8 @@ def fig_surface_tiles(plt, results: Results):
         for ax, values, cmap, label, title in (
                 (axes[row, 0], envelope, "viridis", "enveloped height (mm)", "enveloped surface"),
                 (axes[row, 1], pressure, "magma", "contact pressure (MPa)", "pressure map")):
-            image = ax.imshow(values, origin="lower", extent=extent, cmap=cmap, aspect="auto", interpolation="nearest")
+            # equal scales along and across: a 40 mm wide tile is not stretched to the panel
+            image = ax.imshow(values, origin="lower", extent=extent, cmap=cmap, aspect="equal", interpolation="nearest")
             fig.colorbar(image, ax=ax, label=label)
             ax.set(title=f"{group}: {title}, {modulus_label(e)}", xlabel="x along the road (mm)",
                    ylabel="y across (mm)")
@@ -113,8 +114,10 @@ def fig_line_vs_areal(plt, results: Results):
     fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
                              layout="constrained")
     moduli = sorted(diff["youngs_modulus"].unique().to_list())
+    over = over_budget_bands(results, results.surface_bands)
     for column, group in enumerate(groups):
         ax = axes[0, column]
+        mark_over_budget(ax, [position[b] for b in over.get(str(group), ()) if b in position])
         for colour, e in zip(COLOURS, moduli):
             rows = diff.filter((pl.col("group") == group) & (pl.col("youngs_modulus") == e))
             ax.plot([position[b] for b in rows["band"]], rows["difference_db"], color=colour, marker=".", lw=1.0,
@@ -125,5 +128,5 @@ def fig_line_vs_areal(plt, results: Results):
         ax.set_xticklabels(labels["label"].to_list(), rotation=90)
         ax.set(title=str(group), xlabel="band, centre wavelength (mm)")
     axes[0, 0].set_ylabel("line − areal enveloped level (dB)")
-    legend_outside(fig, axes[0, 0])
+    legend_outside(fig)
     return fig

@@ -158,6 +158,14 @@ def bins(n: int, old: float, new: float) -> tuple[np.ndarray, int]:
 def resample(surface: Surface, dx: float, dy: float) -> Surface:
     """Resamples by interval averaging in both directions; documented at :meth:`Surface.resample`."""
     new_dx, new_dy = positive(dx, "dx"), positive(dy, "dy")
+    for name, new, own in (("dx", new_dx, surface.dx), ("dy", new_dy, surface.dy)):
+        if new < own * (1 - 1e-9):
+            # averaging onto a finer grid leaves most cells without a reading (all NaN but one in
+            # (own / new)^2), and the next step fails on rows of drop-outs
+            raise InvalidInputError(
+                f"resample: {name} {new:.6g} m is finer than the surface's own spacing {own:.6g} m; resampling "
+                "averages readings, so it only makes a surface coarser (a finer grid would be all drop-outs "
+                f"but one cell in {own / new:.3g}): give {name} >= {own:.6g} m")
     z = surface.heights
     bx, nbx = bins(z.shape[1], surface.dx, new_dx)
     by, nby = bins(z.shape[0], surface.dy, new_dy)

@@ -14,6 +14,7 @@ from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number
 from roadtex.profiles.plausibility import set_distance_unit, stated_distance_unit, warn_if_implausible_texture
+from roadtex.profiles.profile import MAX_MAGNITUDE
 from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
 from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
@@ -184,6 +185,10 @@ def finish(name: str, fmt: str, heights: np.ndarray, dx: float, dy: float, metad
         raise ProfileFormatError(f"{name}: holds an infinite or overflowing height")
     if np.isnan(heights).all():
         raise ProfileFormatError(f"{name}: all {heights.size} heights are drop-outs (NaN)")
+    biggest = float(np.nanmax(np.abs(heights)))
+    if biggest > MAX_MAGNITUDE:   # the file's fault, not an argument's: a ProfileFormatError naming it
+        raise ProfileFormatError(f"{name}: a height of {biggest:.3g} m is beyond {MAX_MAGNITUDE:.0g} m: not a road "
+                                 "surface (a corrupt file, or the wrong height unit?)")
     metadata.setdefault("source", name)
     history.append(f"read_surface({name!r}, format={fmt!r}): {heights.shape[0]} x {heights.shape[1]} readings, "
                    f"dx {format_number(dx)} m, dy {format_number(dy)} m, "

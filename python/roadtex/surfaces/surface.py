@@ -158,7 +158,8 @@ class Surface:
         each new height the mean of the valid readings in its rectangle (interval averaging in both
         directions, as :meth:`roadtex.profiles.Profile.resample` does along a line). Each reading
         stands for a dx x dy cell; the new grid starts at the surface's corner; a rectangle with no
-        valid reading is a drop-out. Resampling at the surface's own spacings is the identity."""
+        valid reading is a drop-out. Resampling at the surface's own spacings is the identity; a
+        spacing finer than the surface's is refused (InvalidInputError): averaging cannot refine."""
         return conditioning.resample(self, dx, dx if dy is None else dy)
 
     def lines(self, rows: Iterable[int] | None = None, every: int | None = None,

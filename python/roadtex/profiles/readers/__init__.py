@@ -11,7 +11,7 @@ from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number, missing_positions
 from roadtex.profiles.plausibility import stated_distance_unit, warn_if_implausible_texture
-from roadtex.profiles.profile import Profile
+from roadtex.profiles.profile import MAX_MAGNITUDE, Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
 from roadtex.profiles.readers.npy import read_npy
@@ -153,6 +153,10 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
         raise ProfileFormatError(f"{name}: data row {row + 1} holds an infinite or overflowing value")
     if np.isnan(heights).all():
         raise ProfileFormatError(f"{name}: all {heights.size} heights are drop-outs (NaN)")
+    biggest = float(max(np.nanmax(np.abs(heights)), np.nanmax(np.abs(positions))))
+    if biggest > MAX_MAGNITUDE:   # the file's fault, not an argument's: a ProfileFormatError naming it
+        raise ProfileFormatError(f"{name}: a height or position of {biggest:.3g} m is beyond {MAX_MAGNITUDE:.0g} m: "
+                                 "not a road profile (a corrupt file, or the wrong unit?)")
     if options.get("sort", True) is False and np.any(np.diff(positions) <= 0):
         raise ProfileFormatError(f"{name}: positions are not strictly increasing (pass sort=True to sort them)")
     positions, heights, note = sorted_samples(positions, heights, name)

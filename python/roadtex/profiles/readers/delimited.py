@@ -129,6 +129,23 @@ def spacing_in_header(metadata: dict[str, object]) -> str:
     return f"; the file's header says {'; '.join(repr(s) for s in said[:3])}: give that interval as dx, in metres"
 
 
+def two_columns_by_position(names: list[str], options: dict) -> bool:
+    """Whether a two-column table's header names neither a known height nor a known distance column
+    (and no column is named in the options), while both units are given: its columns are then
+    taken by position, distance first, as in a file without a header."""
+    if len(names) != 2 or options.get("height_column") is not None or options.get("distance_column") is not None:
+        return False
+    if options.get("distance_unit") is None or options.get("height_unit") is None or options.get("dx") is not None:
+        return False
+    for kind, known in (("height", HEIGHT_NAMES), ("distance", DISTANCE_NAMES)):
+        try:
+            if pick_column(names, None, known, kind, False) is not None:
+                return False
+        except ProfileFormatError:   # ambiguous names: not a case for positions
+            return False
+    return True
+
+
 def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     lines, ends = first_lines(data, 200)
     metadata: dict[str, object] = {}
@@ -240,7 +257,14 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     # The data row each table row came from (blank lines inside a table with a distance column
     # are dropped below; in a heights-only table an empty line is a drop-out on the grid).
     row_numbers = np.arange(table.shape[0])
-    if has_header:
+    if has_header and two_columns_by_position(names, options):
+        # a hand-made export with headers in another language (Abstand;Hoehe) and both units given:
+        # two columns can only be distance then height, as in a header-less file
+        d_index, h_index = 0, 1
+        history.append(f"header {names} names no known distance or height column; with two columns and both units "
+                       f"given, the first ({names[0]!r}) is read as the distance and the second ({names[1]!r}) as "
+                       "the height")
+    elif has_header:
         h_index = pick_column(names, options.get("height_column"), HEIGHT_NAMES, "height", True)
         try:
             d_index = pick_column(names, options.get("distance_column"), DISTANCE_NAMES, "distance",
