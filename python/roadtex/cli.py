@@ -282,10 +282,8 @@ def show_warning(message: Warning | str, category: type[Warning], filename: str,
     print(f"roadtex: warning: {message}", file=sys.stderr)
 
 
-def main(argv: list[str] | None = None) -> int:
-    import warnings
-
-    warnings.showwarning = show_warning
+def build_parser() -> argparse.ArgumentParser:
+    """The ``roadtex`` command's parser, with its sub-commands (the docs' CLI reference renders it)."""
     from roadtex._core import __version__
 
     parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.")
@@ -317,7 +315,14 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    import warnings
+
+    warnings.showwarning = show_warning
+    args = build_parser().parse_args(argv)
     return args.run(args)
 
 

@@ -172,7 +172,7 @@ def load_results(results_dir: Path) -> Results:
                    pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
                    pl.read_parquet(results_dir / "examples.parquet"),
                    pl.read_parquet(results_dir / "edge_effect.parquet"),
-                   json.loads((results_dir / "parameters.json").read_text()),
+                   json.loads((results_dir / "parameters.json").read_text(encoding="utf-8")),
                    pl.read_parquet(pilot_path) if pilot_path.exists() else None, surface_bands, surface_examples,
                    pl.read_parquet(results_dir / "von_meier.parquet"), pl.read_parquet(results_dir / "penetration.parquet"))
 
