@@ -11,14 +11,20 @@ import numpy as np
 import polars as pl
 
 from roadtex.errors import InvalidInputError, ResultsNotFoundError
-from roadtex.spectra.bands import REFERENCE_PRESSURE, REFERENCE_TEXTURE
 
-MM = 1e3
-MPA = 1e6
-COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#7f7f7f")
-#: The references of the job's levels, as every level axis and table column states them.
-TEXTURE_DB = f"dB re {REFERENCE_TEXTURE * 1e6:g} µm"
-PRESSURE_DB = f"dB re {REFERENCE_PRESSURE:g} Pa"
+# The figures' shared style is roadtex.plot's (one drawing code for the report and for users);
+# re-exported here for the report's modules.
+from roadtex.plot.style import (  # noqa: F401
+    COLOURS,
+    MM,
+    MPA,
+    PRESSURE_DB,
+    TEXTURE_DB,
+    legend_outside,
+    megapascals,
+    modulus_label,
+    plain,
+)
 
 
 def pyplot():
@@ -30,14 +36,6 @@ def pyplot():
     plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
                          "axes.titlesize": 10, "legend.fontsize": 8, "svg.fonttype": "none"})
     return plt
-
-
-def plain(value: float, digits: int = 3) -> str:
-    """``value`` to ``digits`` significant digits in positional notation, never with an exponent
-    (2.5e6 -> "2500000", 2.5 -> "2.5", 0.0375 -> "0.0375"); "n/a" for NaN."""
-    if not np.isfinite(value):
-        return "n/a" if np.isnan(value) else ("inf" if value > 0 else "-inf")
-    return np.format_float_positional(float(value), precision=digits, unique=True, fractional=False, trim="-")
 
 
 SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -52,26 +50,6 @@ def tolerance(value: float) -> str:
     if power <= -4 and abs(value / 10.0 ** power - 1.0) < 1e-9:
         return f"10{str(power).translate(SUPERSCRIPTS)}"
     return plain(value)
-
-
-def megapascals(value: float) -> str:
-    """A modulus or pressure in Pa written in MPa: 2.5e6 -> "2.5 MPa"."""
-    return f"{plain(value / MPA, 4)} MPa"
-
-
-def modulus_label(e: float) -> str:
-    """"E = 2.5 MPa" for ``e`` = 2.5e6 Pa."""
-    return f"E = {megapascals(e)}"
-
-
-def legend_outside(fig, ax=None, **kwargs):
-    """One legend for the figure, outside every axes (right, top aligned), with the labelled artists
-    of ``ax`` (default: of all axes, each label once). Needs a figure with constrained layout."""
-    handles: dict[str, Any] = {}
-    for source in ([ax] if ax is not None else fig.axes):
-        for handle, label in zip(*source.get_legend_handles_labels()):
-            handles.setdefault(label, handle)
-    return fig.legend(list(handles.values()), list(handles), loc="outside right upper", **kwargs)
 
 
 def energetic_mean(levels: pl.Expr) -> pl.Expr:
