@@ -24,6 +24,14 @@ from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 ROOT = Path(__file__).resolve().parents[1]
+# The real CAPTIF files for the examples: shared/data/captif-slp beside the repository, looked up
+# as tests/python/conftest.py does (ROADTEX_CAPTIF_DIR overrides); the examples fall back to
+# synthetic profiles, and say so, where it is absent.
+if "ROADTEX_CAPTIF_DIR" not in os.environ:
+    for _folder in ROOT.parents:
+        if (_folder / "shared" / "data" / "captif-slp").is_dir():
+            os.environ["ROADTEX_CAPTIF_DIR"] = str(_folder / "shared" / "data" / "captif-slp")
+            break
 
 
 def cli_reference() -> str:

@@ -322,6 +322,11 @@ def main(argv: list[str] | None = None) -> int:
     import warnings
 
     warnings.showwarning = show_warning
+    # A console or pipe whose encoding cannot spell a file's name (Windows writes redirected output in
+    # the locale's code page, cp1252, not UTF-8) would turn a clear message into UnicodeEncodeError.
+    for stream in (sys.stdout, sys.stderr):
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     args = build_parser().parse_args(argv)
     return args.run(args)
 

@@ -86,9 +86,15 @@ def test_wheel_installs_and_runs_without_rust(tmp_path: Path, captif_dir: Path) 
         assert abs(p.dx - 3.75e-5) < 1e-6 and p.heights.size > 40_000, (p.dx, p.heights.size)
         m = roadtex.mpd(p)
         assert m.is_valid and 2e-3 < m.mpd < 5e-3, m.mpd   # CAPTIF chip seals: about 3 to 3.5 mm
+        import matplotlib
+        matplotlib.use("Agg")
+        import roadtex.plot
+        fig, (top, bottom) = roadtex.plot.profile(z, 1e-5, envelope=r.envelope, pressure=r.pressure)
+        fig.savefig("profile.png")
         print(roadtex.__version__, p.heights.size, m.mpd)
     """)
     version = run(str(python), "-c", library).stdout.split()[0]
+    assert (tmp_path / "profile.png").stat().st_size > 10_000, "roadtex.plot drew nothing from the wheel"
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]["version"]
     assert version == project, f"the wheel is roadtex {version}, the work tree {project}: a stale wheel?"
 
