@@ -150,9 +150,20 @@ def on_page_markdown(markdown: str, page, config, files) -> str:  # noqa: ARG001
     return re.sub(r"<!-- roadtex:(\w+) -->", replace, markdown)
 
 
+#: Sphinx roles in the docstrings (:func:`x`), rendered by mkdocstrings as the role's text before the
+#: code: the code alone reads as intended ("~" keeps only the last dotted name, as in Sphinx).
+SPHINX_ROLE = re.compile(r":(?:func|class|meth|data|mod|attr|exc):<code>(~)?([^<]*)</code>")
+
+
+def _code(match: re.Match[str]) -> str:
+    name = match.group(2).rsplit(".", 1)[-1] if match.group(1) else match.group(2)
+    return f"<code>{name}</code>"
+
+
 def on_page_content(html: str, page, config, files) -> str:  # noqa: ARG001 (the hook's signature)
     """An executed example that raised fails the build: markdown-exec renders the traceback into the
     page and only logs it, which would let an example rot in a green build."""
+    html = SPHINX_ROLE.sub(_code, html)
     import html as entities
 
     text = entities.unescape(re.sub(r"<[^>]+>", "", html))  # highlighted: tags inside the traceback
