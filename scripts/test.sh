@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Every test: hygiene (rustfmt, clippy, ruff, stubtest), the Rust core (cargo test) and the Python
-# package (pytest).
+# Every test: hygiene (rustfmt, clippy, ruff, stubtest), the Rust core (cargo test), the Python
+# package (pytest) and the documentation site (mkdocs --strict: every example executed, every link
+# and reference resolved).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -14,4 +15,7 @@ cargo clippy --release --all-targets --features python -- -D warnings
 .venv/bin/ruff check python tests/python benches
 .venv/bin/python -m mypy.stubtest roadtex._core
 cargo test --release
+echo "roadtex: docs (mkdocs build --strict, examples executed)" >&2
+# Not --quiet: with it mkdocs does not count warnings, and a broken link would pass strict mode.
+NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --site-dir "$root/site"
 .venv/bin/python -m pytest -q tests/python "$@"

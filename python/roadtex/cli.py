@@ -370,10 +370,8 @@ def unrecognized(parser: argparse.ArgumentParser, unknown: list[str]) -> None:
     parser.error(f"unrecognized arguments: {' '.join(unknown)}{' (' + '; '.join(hints) + ')' if hints else ''}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    import warnings
-
-    warnings.showwarning = show_warning
+def build_parser() -> argparse.ArgumentParser:
+    """The ``roadtex`` command's parser, with its sub-commands (the docs' CLI reference renders it)."""
     from roadtex._core import __version__
 
     # no abbreviations: '--pres 0.3' must not be taken silently as --pressure (nor a later option
@@ -409,8 +407,22 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--out", default="manifest.csv", help="manifest file to write (default manifest.csv)")
     m.add_argument("--no-recursive", action="store_true", help="do not descend into sub-folders")
     m.set_defaults(run=manifest_command)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    import warnings
+
+    warnings.showwarning = show_warning
+    # A console or pipe whose encoding cannot spell a file's name (Windows writes redirected output in
+    # the locale's code page, cp1252, not UTF-8) would turn a clear message into UnicodeEncodeError.
+    for stream in (sys.stdout, sys.stderr):
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
+    parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:
+        commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         unrecognized(commands.choices[args.command], unknown)
     try:
         return args.run(args)

@@ -57,7 +57,7 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
               "roadtex": __version__, "surfaces": [surfaces_per_kind, list(surface_size), surface_dx]}
     stamp = root / "archive.json"
     try:
-        same = json.loads(stamp.read_text()) == recipe
+        same = json.loads(stamp.read_text(encoding="utf-8")) == recipe
     except (OSError, ValueError):
         same = False
     rows = []
@@ -81,7 +81,7 @@ def write_synthetic_archive(folder: str | os.PathLike[str], *, kinds: Sequence[s
                      "device": "roadtex synthetic surface generator", "speed_kmh": speed_kmh})
     manifest = root / "manifest.csv"
     pl.DataFrame(rows, infer_schema_length=None).write_csv(manifest)
-    stamp.write_text(json.dumps(recipe))
+    stamp.write_text(json.dumps(recipe), encoding="utf-8")
     return manifest
 
 

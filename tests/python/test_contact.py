@@ -337,7 +337,7 @@ def test_million_point_profile():
     """N = 2**20: a 52 m self-affine profile sampled at 0.05 mm with texture down to 3.2 mm
     wavelength (64 dx) converges to tol 1e-8 with all invariants (thousands of contact islands;
     78 iterations when measured). Roughness down to 4 dx at this N (some 30,000 islands) takes
-    about 180; see the README's performance section."""
+    about 180; see docs/performance.md."""
     n, dx = 2**20, 5e-5
     heights = self_affine_profile(n, n * dx, rms_slope=ROAD_SLOPE, cutoff_fraction=1 / 64, seed=11)
     result = solve(heights, dx, TREAD_E, TYRE_P, tol=1e-8, max_iterations=500)

@@ -83,7 +83,8 @@ def test_no_module_imports_a_name_from_the_package_root() -> None:
 
 
 # Lower layers never import higher ones: the order in which data flows.
-LAYERS = ["errors", "_checks", "profiles", "surfaces", "models", "spectra", "comparisons", "budget", "archive", "report", "demo", "cli"]
+LAYERS = ["errors", "_checks", "profiles", "surfaces", "models", "spectra", "comparisons", "budget", "plot", "archive",
+          "report", "demo", "cli"]
 
 
 def _layer(module: str) -> int | None:

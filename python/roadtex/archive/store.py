@@ -90,12 +90,12 @@ def write_error(code: int | None, message: str) -> ArchiveWriteError:
 
 
 def write_json(path: Path, payload: dict[str, Any]) -> None:
-    write_atomically(path, lambda p: p.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str)))
+    write_atomically(path, lambda p: p.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str), encoding="utf-8"))
 
 
 def read_status(run_dir: Path) -> dict[str, Any] | None:
     try:
-        return json.loads((run_dir / STATUS_FILE).read_text())
+        return json.loads((run_dir / STATUS_FILE).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
 

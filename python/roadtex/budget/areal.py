@@ -71,7 +71,7 @@ AREAL_PILOT_TILES = 3
 #: Largest pilot window, in points at the run's spacing: a strip of the tile as long as the tile
 #: and as many rows across as make up this many points (at least :data:`MIN_WINDOW_ROWS` rows). 2^15: 32 rows (16 mm at
 #: 0.5 mm) of a 0.5 m tile at 0.5 mm, the strip width checked at 1 mm (16 of 64 rows: the
-#: estimates covered the whole tile's errors on 18 surfaces; README "Error budget: surface runs").
+#: estimates covered the whole tile's errors on 18 surfaces; docs/guide/error-budget.md, "Error budget: surface runs").
 AREAL_WINDOW_POINTS = 2 ** 15
 
 #: Fewest rows of a pilot window.

@@ -14,7 +14,7 @@ estimate, but the budget does not constrain them: they lie above 5 kHz at every 
 need to notice a change of a broadband noise, and below the repeatability of texture-level
 measurements (a few tenths of a dB), yet large enough to leave the resampling floor measured on
 the CAPTIF files (0.05 to 0.12 dB in the 2.5 to 3.15 mm bands as soon as the 0.0375 mm files are
-resampled at all, see README "Error budget") some room.
+resampled at all, see docs/guide/error-budget.md) some room.
 """
 
 from __future__ import annotations

@@ -93,7 +93,7 @@ REFINE_LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
 #: between segments are heavy-tailed (one segment may err 5 times more than the pilot's rms): on 8
 #: synthetic pavements x 10 settings x 6 bands (10 segments, 3 in the pilot) the pooled Gaussian
 #: extrapolation was exceeded by the true largest error in 29 % of the cases, by 1.5 times it in 11 %,
-#: by 2 times it in 4.6 % (95th percentile of the ratio 0.96, largest 2.5); see README "Error budget".
+#: by 2 times it in 4.6 % (95th percentile of the ratio 0.96, largest 2.5); see docs/guide/error-budget.md.
 SPREAD_FACTOR = 2.0
 
 #: Ratio between neighbouring candidate point counts.

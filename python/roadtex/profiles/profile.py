@@ -267,7 +267,7 @@ class Profile:
         0.8 mm rms on dense asphalt, 2.4 to 3.2 mm on porous asphalt and CAPTIF in 0.5 m
         segments); ``False`` keeps the heights. The seamless line has a cost where an end sample
         lies in a pore: the stone tops the rubber rests on then step at the wrap (on porous
-        asphalt the enveloped levels from 20 to 40 mm read 0.2 to 1.3 dB higher; README,
+        asphalt the enveloped levels from 20 to 40 mm read 0.2 to 1.3 dB higher; docs/theory.md,
         "Seamless segments"). The removed lines are kept in :attr:`Segments.trends` so results in the
         profile's frame can be restored (``heights + trends`` are the profile's heights). The ends
         of a segment are still where the model's periodic image begins: use an overlap and

@@ -12,14 +12,20 @@ import numpy as np
 import polars as pl
 
 from roadtex.errors import DamagedResultsError, InvalidInputError, ResultsNotFoundError
-from roadtex.spectra.bands import REFERENCE_PRESSURE, REFERENCE_TEXTURE
 
-MM = 1e3
-MPA = 1e6
-COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#7f7f7f")
-#: The references of the job's levels, as every level axis and table column states them.
-TEXTURE_DB = f"dB re {REFERENCE_TEXTURE * 1e6:g} µm"
-PRESSURE_DB = f"dB re {REFERENCE_PRESSURE:g} Pa"
+# The figures' shared style is roadtex.plot's (one drawing code for the report and for users);
+# re-exported here for the report's modules.
+from roadtex.plot.style import (  # noqa: F401
+    COLOURS,
+    MM,
+    MPA,
+    PRESSURE_DB,
+    TEXTURE_DB,
+    legend_outside,
+    megapascals,
+    modulus_label,
+    plain,
+)
 
 
 def pyplot():
@@ -31,14 +37,6 @@ def pyplot():
     plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
                          "axes.titlesize": 10, "legend.fontsize": 8, "svg.fonttype": "none"})
     return plt
-
-
-def plain(value: float, digits: int = 3) -> str:
-    """``value`` to ``digits`` significant digits in positional notation, never with an exponent
-    (2.5e6 -> "2500000", 2.5 -> "2.5", 0.0375 -> "0.0375"); "n/a" for NaN."""
-    if not np.isfinite(value):
-        return "n/a" if np.isnan(value) else ("inf" if value > 0 else "-inf")
-    return np.format_float_positional(float(value), precision=digits, unique=True, fractional=False, trim="-")
 
 
 SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -53,27 +51,6 @@ def tolerance(value: float) -> str:
     if power <= -4 and abs(value / 10.0 ** power - 1.0) < 1e-9:
         return f"10{str(power).translate(SUPERSCRIPTS)}"
     return plain(value)
-
-
-def megapascals(value: float) -> str:
-    """A modulus or pressure in Pa written in MPa: 2.5e6 -> "2.5 MPa"."""
-    return f"{plain(value / MPA, 4)} MPa"
-
-
-def modulus_label(e: float) -> str:
-    """"E = 2.5 MPa" for ``e`` = 2.5e6 Pa."""
-    return f"E = {megapascals(e)}"
-
-
-def legend_outside(fig, ax=None, **kwargs):
-    """One legend for the figure, outside every axes (right, top aligned), with the labelled artists
-    of ``ax`` (an axes or a list of them, the first artist of each label kept; default: of all
-    axes, each label once). Needs a figure with constrained layout."""
-    handles: dict[str, Any] = {}
-    for source in (fig.axes if ax is None else list(ax) if isinstance(ax, (list, tuple)) else [ax]):
-        for handle, label in zip(*source.get_legend_handles_labels()):
-            handles.setdefault(label, handle)
-    return fig.legend(list(handles.values()), list(handles), loc="outside right upper", **kwargs)
 
 
 #: The legend entry of the bands marked by :func:`mark_over_budget`.
@@ -239,7 +216,7 @@ def read_results(results_dir: Path) -> Results:
                    pl.read_parquet(errors_path) if errors_path.exists() else pl.DataFrame(),
                    pl.read_parquet(results_dir / "examples.parquet"),
                    pl.read_parquet(results_dir / "edge_effect.parquet"),
-                   json.loads((results_dir / "parameters.json").read_text()),
+                   json.loads((results_dir / "parameters.json").read_text(encoding="utf-8")),
                    pl.read_parquet(pilot_path) if pilot_path.exists() else None, surface_bands, surface_examples,
                    pl.read_parquet(results_dir / "von_meier.parquet"), pl.read_parquet(results_dir / "penetration.parquet"))
 

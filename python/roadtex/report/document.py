@@ -358,7 +358,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
     figures_dir.mkdir(parents=True, exist_ok=True)
     options = results.options
     benchmark_path = Path(benchmark) if benchmark is not None else results.root / "benchmark.json"
-    bench_rows = json.loads(benchmark_path.read_text()) if benchmark_path.exists() else None
+    bench_rows = json.loads(benchmark_path.read_text(encoding="utf-8")) if benchmark_path.exists() else None
     plt = pyplot()
     figures, regressions = draw_figures(results, bench_rows)
     numbered = captions(list(figures), {"setting_speed_vs_error": pilot_state(results) or ""})

@@ -9,11 +9,16 @@ from typing import Any, Callable
 import numpy as np
 import polars as pl
 
+import roadtex.plot as plot
 from roadtex.comparisons.figures import SEED_D_STAR
+from roadtex.plot.profiles import draw_pressure
 from roadtex.report.data import COLOURS, MM, Example, legend_outside, megapascals, modulus_label
 
+#: The length of profile the figures show (m), in the middle of the segment.
+MIDDLE_WINDOW = 0.1
 
-def middle_window(example: Example, length: float = 0.1) -> slice:
+
+def middle_window(example: Example, length: float = MIDDLE_WINDOW) -> slice:
     """A window of ``length`` (m) in the middle of the segment, so texture is visible at a glance."""
     n = example.heights.size
     points = min(n, max(8, int(round(length / example.dx))))
@@ -76,11 +81,8 @@ def per_group(plt, examples: list[Example], draw: Callable[[Any, Example], None]
 
 def fig_envelopes(plt, examples: list[Example]):
     def draw(ax, example: Example) -> None:
-        view = middle_window(example)
-        x = np.arange(example.heights.size)[view] * example.dx * MM
-        ax.plot(x, example.heights[view] * MM, color="0.3", lw=0.8, label="road profile")
-        for colour, (e, envelope) in zip(COLOURS, example.envelopes.items()):
-            ax.plot(x, envelope[view] * MM, color=colour, lw=1.0, label=modulus_label(e))
+        # roadtex.plot draws it, as for a user (one drawing code): the middle 0.1 m of the segment
+        plot.profile(example.heights, example.dx, envelope=example.envelopes, window=MIDDLE_WINDOW, ax=ax)
 
     return per_group(plt, examples, draw, "height (mm)", "Enveloped profiles (INRETS periodic model)")
 
@@ -89,9 +91,7 @@ def fig_pressures(plt, examples: list[Example]):
     def draw(ax, example: Example) -> None:
         view = middle_window(example)
         x = np.arange(example.heights.size)[view] * example.dx * MM
-        for colour, (e, pressure) in zip(COLOURS, example.pressures.items()):
-            ax.plot(x, pressure[view] / 1e6, color=colour, lw=0.9, label=modulus_label(e))
-        ax.set_yscale("symlog", linthresh=0.1)
+        draw_pressure(ax, x, {e: pressure[view] for e, pressure in example.pressures.items()})
 
     return per_group(plt, examples, draw, "pressure p (MPa)", "Contact pressure (INRETS periodic model)")
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+import roadtex.plot as plot
 from roadtex.report.data import (
     COLOURS,
     PRESSURE_DB,
@@ -63,35 +64,24 @@ def mean_spectra(results: Results, level: str) -> pl.DataFrame:
 
 
 def fig_texture_spectra(plt, results: Results):
-    group = "group"
-    enveloped = mean_spectra(results, "enveloped_level")
-    original = mean_spectra(results, "texture_level").filter(pl.col("youngs_modulus") == results.moduli[0])
-    labels = results.bands.sort("band").select("band", "label").unique(maintain_order=True)
-    position = {b: i for i, b in enumerate(labels["band"])}
-    groups = enveloped[group].unique(maintain_order=True).to_list()
+    """Per pavement (column): original and enveloped texture levels per band and E, with the levels'
+    stated numerical errors as error bars, and enveloped minus original below; drawn by
+    :func:`roadtex.plot.band_levels`, as for a user."""
+    bands = results.bands.join(results.run_groups(), on="run_id", how="left")
+    groups = bands["group"].unique(maintain_order=True).to_list()
     limited = sampling_limited(results)
     over = over_budget_bands(results)
     fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
                              layout="constrained")
+    kind = results.options.get("band_kind", "third_octave")
     for column, name in enumerate(groups):
         top, bottom = axes[0, column], axes[1, column]
-        for ax in (top, bottom):
-            mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
-        base = original.filter(pl.col(group) == name)
-        top.plot([position[b] for b in base["band"]], base["texture_level"], color="0.2", lw=1.6, label="original")
-        for colour, e in zip(COLOURS, results.moduli):
-            rows = enveloped.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
-            xs = [position[b] for b in rows["band"]]
-            top.plot(xs, rows["enveloped_level"], color=colour, lw=1.0, label=modulus_label(e))
-            joined = rows.join(base.select("band", "texture_level"), on="band")
-            bottom.plot([position[b] for b in joined["band"]], joined["enveloped_level"] - joined["texture_level"],
-                        color=colour, lw=1.0, marker=".", label=modulus_label(e))
-        top.set(title=str(name), ylabel=f"texture level L_tx ({TEXTURE_DB})")
-        bottom.set(ylabel="enveloped − original level (dB)")
-        bottom.axhline(0, color="0.5", lw=0.7)
+        plot.band_levels(bands.filter(pl.col("group") == name), kind=kind, ax=(top, bottom))
+        top.set_title(str(name))
+        position = {b: b for b in bands["band"].unique().to_list()}   # roadtex.plot draws at the band number
         for ax in (top, bottom):   # the enveloped levels are the contact model's
+            mark_over_budget(ax, sorted(over.get(str(name), ())))
             hatch_limited(ax, limited.get(str(name), set()), position)
-        band_axis(bottom, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
     legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
 
@@ -187,17 +177,7 @@ def fig_pressure_vs_texture(plt, results: Results):
 
 
 def fig_speed_vs_error(plt, benchmark: dict[str, Any]):
-    rows = [r for r in benchmark.get("rows", []) if r.get("time_s") and r.get("l1_error") is not None]
-    if not rows:
-        return None
-    table = pl.DataFrame(rows, infer_schema_length=None)
-    fig, ax = plt.subplots(figsize=(8, 4.2), layout="constrained")
-    markers = {"westergaard": "o", "self_affine": "s"}
-    for colour, ((solver,), group) in zip(COLOURS, table.group_by("solver", maintain_order=True)):
-        for case, sub in group.group_by("case", maintain_order=True):
-            ax.scatter(sub["l1_error"], sub["time_s"], color=colour, marker=markers.get(case[0], "^"), s=18,
-                       label=f"{solver} ({case[0]})")
-    ax.set(xscale="log", yscale="log", xlabel="relative L1 pressure error", ylabel="time per solve (s)",
-           title="Speed against error (benchmark)")
-    legend_outside(fig, ax)
+    fig, ax = plot.speed_vs_error(benchmark.get("rows", []))
+    if fig is not None:
+        ax.set_title("Speed against error (benchmark)")
     return fig

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, MM, Results, legend_outside, mark_over_budget, modulus_label, over_budget_bands
+import roadtex.plot as plot
+from roadtex.report.data import COLOURS, Results, legend_outside, mark_over_budget, modulus_label, over_budget_bands
 
 #: Captions of the 3D-surface figures (after the seed's figures; drawn only when the results hold areal rows).
 SURFACE_FIGURES: dict[str, str] = {
@@ -83,23 +84,21 @@ def fig_surface_tiles(plt, results: Results):
         return None
     chosen = (surface_groups(results).filter(pl.col("run_id").is_in(examples["run_id"].unique().implode()))
               .group_by("group", maintain_order=True).first())
-    fig, axes = plt.subplots(chosen.height, 2, figsize=(10.0, 2.2 * chosen.height + 0.8), squeeze=False,
+    # One map per row, the full width: at equal scales a tile 0.5 m long and 40 mm wide is a strip.
+    fig, axes = plt.subplots(2 * chosen.height, 1, figsize=(10.0, 1.8 * 2 * chosen.height + 0.4), squeeze=False,
                              layout="constrained")
     for row, (group, run_id) in enumerate(chosen.select("group", "run_id").iter_rows()):
         tile = examples.filter(pl.col("run_id") == run_id).sort("y", "x")
         x, y = np.unique(tile["x"].to_numpy()), np.unique(tile["y"].to_numpy())
-        extent = (x[0] * MM, x[-1] * MM, y[0] * MM, y[-1] * MM)
-        envelope = tile["envelope"].to_numpy().reshape(y.size, x.size) * MM
-        pressure = tile["pressure"].to_numpy().reshape(y.size, x.size) / 1e6
+        envelope = tile["envelope"].to_numpy().reshape(y.size, x.size)
+        pressure = tile["pressure"].to_numpy().reshape(y.size, x.size)
         e = float(tile["youngs_modulus"][0])
-        for ax, values, cmap, label, title in (
-                (axes[row, 0], envelope, "viridis", "enveloped height (mm)", "enveloped surface"),
-                (axes[row, 1], pressure, "magma", "contact pressure (MPa)", "pressure map")):
-            # equal scales along and across: a 40 mm wide tile is not stretched to the panel
-            image = ax.imshow(values, origin="lower", extent=extent, cmap=cmap, aspect="equal", interpolation="nearest")
-            fig.colorbar(image, ax=ax, label=label)
-            ax.set(title=f"{group}: {title}, {modulus_label(e)}", xlabel="x along the road (mm)",
-                   ylabel="y across (mm)")
+        dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+        # roadtex.plot draws the maps, as for a user: equal scales along and across the road
+        for ax, values, kind, title in ((axes[2 * row, 0], envelope, "envelope", "enveloped surface"),
+                                        (axes[2 * row + 1, 0], pressure, "pressure", "pressure map")):
+            plot.surface_map(values, dx, dy, kind=kind, x0=float(x[0]), y0=float(y[0]), ax=ax,
+                             title=f"{group}: {title}, {modulus_label(e)}")
     return fig
 
 

@@ -107,7 +107,7 @@ CLASS1_MASK = (
     (4.0, -np.inf, -70.0),
 )
 """Class-1 relative-attenuation limits of IEC 61260:1995 (= ANSI S1.11-2004 class 1), in gain (dB):
-the table (breakpoint, min, max) of the public implementations cited in the README (the text of the
+the table (breakpoint, min, max) of the public implementations cited in docs/guide/spectra.md (the text of the
 2014 edition, IEC 61260-1:2014, was not at hand; its limits are acceptance limits that include the
 measurement uncertainty and are no tighter). Between G^(3/8) and G^(1/2) the upper limit stays +0.3
 and the lower one falls to -5; just above G^(1/2) the upper limit drops to -2."""

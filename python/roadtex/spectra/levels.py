@@ -299,7 +299,7 @@ def octave_levels(heights: np.ndarray | Sequence[float], dx: float, *, reference
 
     With the DFT method each octave's mean square is exactly the sum of its three third octaves'; with
     ``method="filter"`` the octave has its own class-1 octave filter and the sum holds approximately
-    (the filters' skirts differ; see the README).
+    (the filters' skirts differ; see docs/guide/spectra.md).
     """
     return _levels_frame(heights, dx, "heights", "octave", reference, periodic, window, detrend, method)
 
