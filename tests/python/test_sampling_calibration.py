@@ -12,6 +12,7 @@ import pytest
 from roadtex.budget.sampling import (
     COVERAGE,
     REFERENCE_DX,
+    contact_resolved_to,
     sampling_statement,
     shipped_calibration,
 )
@@ -99,6 +100,15 @@ def test_statement_between_and_beyond_the_calibrated_samplings() -> None:
     assert sampling_statement(1e-3, [5e6, 5e7], 4, table=table).height == 2
 
 
+def test_contact_resolution_stops_at_the_first_unresolved_band_from_the_long_side() -> None:
+    statement = pl.DataFrame({"youngs_modulus": [2e6] * 4 + [1e7] * 4, "band": [14, 15, 16, 17] * 2,
+                              "sampling_run_uncertainty_db": [0.3, 0.5, 1.5, 0.4, 0.3, 0.6, 0.7, 0.2]})
+    centres = {14: 40e-3, 15: 31.5e-3, 16: 25e-3, 17: 20e-3}
+    assert contact_resolved_to(statement, centres) == 31.5e-3   # 25 mm fails at 2 MPa: 20 mm is not reached
+    assert contact_resolved_to(statement, centres, threshold_db=2.0) == 20e-3
+    assert contact_resolved_to(statement, centres, threshold_db=0.2) is None
+
+
 def test_the_shipped_calibration_holds_the_samplings_and_the_one_millimetre_bias() -> None:
     table = shipped_calibration()
     samplings = set(table.filter(pl.col("dx") == pl.col("width"))["dx"].round(6).to_list())
@@ -124,3 +134,4 @@ def test_leave_one_out_on_captif_covers_the_run_mean_difference() -> None:
         assert result["covered"].mean() >= 0.9, (correct, result.filter(~pl.col("covered")))
         ratio = (result["stated_db"] / result["actual_db"].abs()).median()
         assert ratio <= 3.0, (correct, ratio)
+        assert result["segments_covered"].mean() >= 0.9   # single segments by the one-segment figure

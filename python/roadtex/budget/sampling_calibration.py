@@ -181,8 +181,9 @@ def leave_one_out(differences: pl.DataFrame, *, level: str = "enveloped", correc
     calibration of the others (:func:`roadtex.budget.sampling.summarise`): per (file, dx, width,
     modulus, band) the actual difference of the run's mean level (the energetic mean over the
     file's non-overlapping segments, as the report averages; minus the correction when
-    ``correct``) from the fine data's, the stated run-mean uncertainty, and ``covered``
-    (|actual| <= stated)."""
+    ``correct``) from the fine data's, the stated run-mean uncertainty, ``covered``
+    (|actual| <= stated), and ``segments_covered``: the share of the file's segments (all of them,
+    overlapping ones too) whose own difference the single-segment uncertainty covers."""
     from roadtex.budget.sampling import sampling_statement, summarise
 
     files = sorted(set(differences["file"].to_list()))
@@ -191,10 +192,10 @@ def leave_one_out(differences: pl.DataFrame, *, level: str = "enveloped", correc
     rows = []
     for held in files:
         table = summarise(differences.filter(pl.col("file") != held), level, segment_length)
-        test = differences.filter(pl.col("file") == held)
-        starts = np.unique(test["start"].to_numpy())
+        every = differences.filter(pl.col("file") == held)
+        starts = np.unique(every["start"].to_numpy())
         run = starts[run_segments(starts, segment_length)]
-        test = test.filter(pl.col("start").is_in(run.tolist()))
+        test = every.filter(pl.col("start").is_in(run.tolist()))
         moduli = np.unique(test["youngs_modulus"].to_numpy())
         for (dx, width), case in test.group_by(["dx", "width"], maintain_order=True):
             statement = sampling_statement(dx, moduli, run.size, correct=correct, table=table, level=level,
@@ -206,7 +207,11 @@ def leave_one_out(differences: pl.DataFrame, *, level: str = "enveloped", correc
                 correction = said["sampling_correction_db"][0] if correct else None
                 actual -= correction or 0.0
                 stated = said["sampling_run_uncertainty_db"][0]
+                single = every.filter((pl.col("dx") == dx) & (pl.col("width") == width)
+                                      & (pl.col("youngs_modulus") == modulus) & (pl.col("band") == band))
+                own = (single[f"{level}_db"].to_numpy() - (correction or 0.0))
                 rows.append({"file": held, "dx": dx, "width": width, "youngs_modulus": modulus, "band": band,
                              "label": cell["label"][0], "actual_db": actual, "stated_db": stated,
-                             "covered": abs(actual) <= stated})
+                             "covered": abs(actual) <= stated,
+                             "segments_covered": float(np.mean(np.abs(own) <= said["sampling_uncertainty_db"][0]))})
     return pl.DataFrame(rows)
