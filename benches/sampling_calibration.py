@@ -5,7 +5,7 @@
 
 Each CAPTIF file (0.0375 mm) is cut into 0.5 m segments every --step m (the job's conditioning),
 each segment averaged to every sampling of roadtex.budget.sampling_calibration.DEFAULT_SAMPLINGS
-(interval averages at 0.1, 0.25, 0.5, 1 mm; a 0.2 mm spot sampled every 0.5 and 1 mm), both solved
+(interval averages at 0.05, 0.1, 0.25, 0.5, 1 mm; a 0.2 mm spot sampled every 0.5 and 1 mm), both solved
 converged (linear road, model dx <= 0.03 mm for the averaged data, 0.019 mm for the fine) at
 E = 1, 2, 5, 10 MPa; the table (roadtex.budget.sampling.summarise) is written to --out. Then the
 full leave-one-out: each file's run-mean difference against a calibration of the other two, per

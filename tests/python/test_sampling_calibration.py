@@ -112,7 +112,7 @@ def test_contact_resolution_stops_at_the_first_unresolved_band_from_the_long_sid
 def test_the_shipped_calibration_holds_the_samplings_and_the_one_millimetre_bias() -> None:
     table = shipped_calibration()
     samplings = set(table.filter(pl.col("dx") == pl.col("width"))["dx"].round(6).to_list())
-    assert {0.0001, 0.00025, 0.0005, 0.001} <= samplings
+    assert {0.00005, 0.0001, 0.00025, 0.0005, 0.001} <= samplings
     assert set(table["youngs_modulus"].to_list()) == {1e6, 2e6, 5e6, 1e7}
     short = table.filter((pl.col("level") == "enveloped") & (pl.col("dx") == 1e-3) & (pl.col("width") == 1e-3)
                          & (pl.col("label") == "2.5") & (pl.col("youngs_modulus") == 2e6))

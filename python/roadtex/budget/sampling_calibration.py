@@ -46,11 +46,11 @@ MODEL_DX = 0.03e-3
 #: Solver tolerance of every calibration solve (relative residual).
 CALIBRATION_TOL = 1e-8
 
-#: Samplings (dx, averaging width), m: interval averaging at 0.1 to 1 mm, and laser spots of
+#: Samplings (dx, averaging width), m: interval averaging at 0.05 to 1 mm, and laser spots of
 #: 0.2 mm (a typical triangulation spot; no profiler's figure was found to cite, an assumption)
 #: sampled every 0.5 and 1 mm.
 DEFAULT_SAMPLINGS: tuple[tuple[float, float], ...] = (
-    (0.1e-3, 0.1e-3), (0.25e-3, 0.25e-3), (0.5e-3, 0.5e-3), (1e-3, 1e-3), (0.5e-3, 0.2e-3), (1e-3, 0.2e-3))
+    (0.05e-3, 0.05e-3), (0.1e-3, 0.1e-3), (0.25e-3, 0.25e-3), (0.5e-3, 0.5e-3), (1e-3, 1e-3), (0.5e-3, 0.2e-3), (1e-3, 0.2e-3))
 
 DIFFERENCE_SCHEMA = {
     "file": pl.String, "start": pl.Float64, "dx": pl.Float64, "width": pl.Float64, "youngs_modulus": pl.Float64,
