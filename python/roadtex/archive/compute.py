@@ -16,8 +16,10 @@ from roadtex.archive.schemas import (
     PROFILE_SCHEMA,
     RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
+    SAMPLING_BAND_COLUMNS,
     SEGMENT_SCHEMA,
 )
+from roadtex.budget.sampling import STATEMENT_SCHEMA, run_statement
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.grid import coarse_points, refine_periodic
@@ -210,19 +212,26 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
             "enveloped_level": enveloped.ravel(),
             "pressure_level": pressure.ravel(),
         }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id"), pl.lit("line").alias("model"),
-                        pl.lit(None, dtype=pl.Int64).alias("line")).select(
+                        pl.lit(None, dtype=pl.Int64).alias("line"),
+                        *[pl.lit(None, dtype=pl.Float64).alias(c) for c in SAMPLING_BAND_COLUMNS]).select(
             [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
 
+    statement, sampling_dx, resolved_to = run_stage("spectra", lambda: run_statement(
+        raw.dx, dx, conditioned.length, options.segment_length, n_segments, moduli, options.mean_pressure,
+        options.band_kind, options.band_method, dict(bands.select("band", "centre_wavelength").iter_rows()),
+        correct=options.sampling_correction))
     level_columns = ["texture_level", "enveloped_level", "pressure_level"]
     tables = {
         "example": example,
         # NaN (no valid baseline, a band without DFT line) and -inf (a band without power) are
         # undefined numbers: null in the tables, never a number that sorts or averages.
         "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA).with_columns(pl.col("mpd").fill_nan(None)),
-        "bands": pl.concat(band_frames).with_columns(
+        "bands": with_sampling(pl.concat(band_frames), statement).with_columns(
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine).with_columns(
+            pl.lit(sampling_dx, dtype=pl.Float64).alias("sampling_dx"),
+            pl.lit(resolved_to, dtype=pl.Float64).alias("contact_resolved_to")),
     }
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
@@ -279,6 +288,17 @@ def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict
             "sampling_note": note}
 
 
+def with_sampling(bands: pl.DataFrame, statement: pl.DataFrame) -> pl.DataFrame:
+    """A run's band rows (RUN_BAND_SCHEMA) with its sampling statement
+    (:func:`roadtex.budget.sampling.run_statement`, joined on modulus and band; null where it has
+    none) and its correction, if any, subtracted from ``enveloped_level``."""
+    columns = [c for c in STATEMENT_SCHEMA if c not in ("youngs_modulus", "band")]
+    joined = bands.drop(columns).join(statement, on=["youngs_modulus", "band"], how="left", maintain_order="left")
+    return joined.with_columns(
+        (pl.col("enveloped_level") - pl.col("sampling_correction_db").fill_null(0.0)).alias("enveloped_level")
+    ).select(list(RUN_BAND_SCHEMA))
+
+
 def model_levels(values: np.ndarray, model_dx: float, bands: pl.DataFrame, options: ProcessingOptions,
                  reference: float | None = None) -> np.ndarray:
     """Band levels (rows, bands) of the model's periodic output (rows of enveloped heights in m, or
@@ -312,7 +332,8 @@ def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning:
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
         "outlier_fraction": [cleaning.outlier_fraction],
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None],
-        "segments": [n_segments], "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
+        "segments": [n_segments], "sampling_dx": [None], "contact_resolved_to": [None],
+        "mpd": [mpd_value], "mpd_valid": [bool(depth.is_valid)],
         "mpd_valid_baselines": [int(depth.valid_segments)], "mpd_baselines": [int(depth.segments.height)],
         "refine_across": [None], "model_dy": [None],   # a line run's model grid is along the road only
         "mpd_spike_rejected": [depth.rejected["spikes"]], "mpd_dropout_rejected": [depth.rejected["dropouts"]],

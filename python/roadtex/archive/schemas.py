@@ -83,6 +83,15 @@ BAND_COLUMNS: Columns = {
     "texture_level": (pl.Float64(), "dB re 1 um"),     # original profile segment
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
+    # What the run's sampling cannot tell of enveloped_level (line runs; roadtex.budget.sampling, calibrated on
+    # the CAPTIF 0.0375 mm files; null outside the calibration: surface runs, other segment lengths or
+    # pressures, octave bands, samplings coarser than 1 mm, bands outside 2.5 to 40 mm). Apart from level_error_db.
+    "sampling_bias_db": (pl.Float64(), "dB"),         # expected enveloped_level (uncorrected) - the 0.0375 mm data's
+    "sampling_correction_db": (pl.Float64(), "dB"),   # subtracted from enveloped_level (--sampling-correction; 0 where
+                                                      # the bias is not systematic; null when not corrected)
+    "sampling_uncertainty_db": (pl.Float64(), "dB"),  # half-width about this row's enveloped_level (one segment) holding
+                                                      # the 0.0375 mm data's level (about 95 %)
+    "sampling_run_uncertainty_db": (pl.Float64(), "dB"),  # the same for the run's mean level over its segments
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
                                                   # (line runs: their group's pilot; surface runs: their own
                                                   # areal pilot, per model; null without budget)
@@ -115,6 +124,10 @@ RUN_COLUMNS: Columns = {
     "outlier_fraction": (pl.Float64(), "1"),      # readings removed as gross outliers (drop-out codes)
     "conditioning_warnings": (pl.String(), None),  # what exceeded the warning thresholds (null: nothing)
     "segments": (pl.Int64(), "count"),
+    "sampling_dx": (pl.Float64(), "m"),           # the sampling the contact levels' sampling statement is for: the
+                                                  # coarser of file_dx and dx_used (null: no statement, see bands)
+    "contact_resolved_to": (pl.Float64(), "m"),   # shortest band centre wavelength down to which every band has a
+                                                  # run-mean sampling uncertainty <= 1 dB (null: none, or no statement)
     "mpd": (pl.Float64(), "m"),                   # ISO 13473-1 over the whole run; null without a valid baseline
     "mpd_valid": (pl.Boolean(), None),            # ISO validity: at least half the baselines valid
     "mpd_valid_baselines": (pl.Int64(), "count"),
@@ -267,6 +280,9 @@ PILOT_SCHEMA = schema(PILOT_COLUMNS)
 SURFACE_ERROR_SCHEMA = schema(SURFACE_ERROR_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
+#: The band columns of the sampling statement (null until a line run's own is joined, and for surface runs).
+SAMPLING_BAND_COLUMNS = ("sampling_bias_db", "sampling_correction_db", "sampling_uncertainty_db",
+                         "sampling_run_uncertainty_db")
 PLAN_BAND_COLUMNS = ("level_error_db", "interpolant_spread_db", "sampling_limited")
 PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction")
 RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}

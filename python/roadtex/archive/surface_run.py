@@ -41,6 +41,7 @@ from roadtex.archive.schemas import (
     METADATA_COLUMNS,
     RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
+    SAMPLING_BAND_COLUMNS,
     SEGMENT_SCHEMA,
     SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
@@ -302,6 +303,8 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
             "texture_level": np.broadcast_to(texture_levels, env_levels.shape).ravel(),
             "enveloped_level": env_levels.ravel(),
             "pressure_level": p_levels.ravel(),
+            # the sampling calibration is of line runs' levels (roadtex.budget.sampling): none stated here
+            **{c: [None] * (count * n_bands) for c in SAMPLING_BAND_COLUMNS},
         }).select([pl.col(c).cast(t) for c, t in RUN_BAND_SCHEMA.items()]))
 
     line_mpd = line_mpd[part]
@@ -436,6 +439,7 @@ def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, clean
         "dropout_fraction": [cleaning.dropout_fraction], "spike_fraction": [cleaning.spike_fraction],
         "outlier_fraction": [cleaning.outlier_fraction],
         "conditioning_warnings": ["; ".join(cleaning.warnings) or None], "segments": [n_tiles],
+        "sampling_dx": [None], "contact_resolved_to": [None],
         "mpd": [float(np.mean(values)) if values else None],
         "mpd_valid": [bool(all(d.is_valid for d in depths))],
         "mpd_valid_baselines": [int(sum(int(d.valid_segments) for d in depths))],

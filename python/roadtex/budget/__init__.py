@@ -6,6 +6,8 @@ numerical error, and what that costs.
 - :mod:`roadtex.budget.study`: :func:`convergence_study`, levels against dx and tol on pilot segments;
 - :mod:`roadtex.budget.pilot`: :func:`choose_setting`, the cheapest setting within the budget;
 - :mod:`roadtex.budget.areal`: the error estimates of surface runs (an areal pilot on a few tiles).
+- :mod:`roadtex.budget.sampling`: what a run's sampling cannot tell of its contact levels, apart from
+  the numerical error (calibrated on real fine profiles by :mod:`roadtex.budget.sampling_calibration`).
 """
 
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH, budget_bands

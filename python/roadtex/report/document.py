@@ -64,6 +64,7 @@ from roadtex.report.error_budget import (
     sampling_summary,
 )
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
+from roadtex.report.sampling_section import sampling_section
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
 from roadtex.report.surface_figures import (
     AGREEMENT_DB,
@@ -402,6 +403,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "least half the baselines are (ISO 13473-1), so a run with many drop-outs gets no valid MPD.</p>",
         html_table(conditioning_table(results), classes="conditioning"),
         "<h2>Numerical error per band</h2>", budget_summary(results), error_table_section(results),
+        "<h2>What the sampling cannot tell</h2>", sampling_section(results, html_table),
         "<h2>Figures</h2>", *sections,
         "<h2>Regressions of pressure level on texture level, per octave band and E</h2>",
         html_table(regression_table(regressions), classes="regressions"),
