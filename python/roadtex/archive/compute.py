@@ -18,6 +18,7 @@ from roadtex.archive.schemas import (
     RUN_RUN_SCHEMA,
     SEGMENT_SCHEMA,
 )
+from roadtex.archive.sections import section_band_table, section_table
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
 from roadtex.models.grid import coarse_points, refine_periodic
@@ -218,6 +219,10 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
         "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine),
     }
+    sections = run_stage("mpd", lambda: section_table(run["run_id"], depth, options.section_length, options.etd_edition))
+    tables["sections"] = sections
+    tables["section_bands"] = run_stage("spectra", lambda: section_band_table(
+        sections, tables["bands"], segments.starts, options.section_length))
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
     return {**tables, **notes}
