@@ -22,6 +22,7 @@ from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions
 from roadtex.archive.plan import JobPlan, plan_job
 from roadtex.archive.schemas import (
+    AREAL_SCHEMA,
     BAND_SCHEMA,
     EDGE_EFFECT_SCHEMA,
     ERROR_SCHEMA,
@@ -69,6 +70,8 @@ Engine = Literal["local", "dask"]
 COMPARISON_TABLES = {"von_meier": VON_MEIER_SCHEMA, "penetration": PENETRATION_SCHEMA}
 #: The tables per section of road of each line run (:mod:`roadtex.archive.sections`).
 SECTION_TABLES = {"sections": SECTION_SCHEMA, "section_bands": SECTION_BAND_SCHEMA}
+#: Tables of some runs only (line runs: sections; surface runs: areal parameters), combined from those that have them.
+SECTION_TABLES["areal"] = AREAL_SCHEMA
 #: Units of ProcessingOptions' fields, recorded in parameters.json.
 OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
                 "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1", "error_budget_db": "dB"}
@@ -327,7 +330,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
                 comparisons = comparison_tables(pl.read_parquet(run_dir / "example.parquet"), options.mean_pressure)
                 for name, frame in comparisons.items():
                     write_atomically(run_dir / f"{name}.parquet", lambda p, t=frame: t.write_parquet(p, statistics=True))
-        for name in SECTION_TABLES:   # line runs only
+        for name in SECTION_TABLES:   # line runs' sections, surface runs' areal parameters
             if (run_dir / f"{name}.parquet").exists():
                 parts[name].append(run_dir / f"{name}.parquet")
         if (run_dir / "surface_example.parquet").exists():

@@ -266,6 +266,25 @@ SECTION_BAND_COLUMNS: Columns = {                 # line runs, per section, E an
     "pressure_level": (pl.Float64(), "dB re 1 Pa"),
 }
 
+AREAL_COLUMNS: Columns = {                        # surface runs: ISO 25178-2 parameters (roadtex.surfaces.areal)
+    "run_id": (pl.String(), None),
+    "scope": (pl.String(), None),                 # "run" (the conditioned surface) or "tile" (as solved)
+    "tile": (pl.Int64(), "count"),                # null for the run's row
+    "start": (pl.Float64(), "m"),                 # along the road
+    "end": (pl.Float64(), "m"),
+    "width": (pl.Float64(), "m"),                 # across the road
+    "sa": (pl.Float64(), "m"),
+    "sq": (pl.Float64(), "m"),
+    "ssk": (pl.Float64(), "1"),                   # null on a flat area
+    "sku": (pl.Float64(), "1"),
+    "sp": (pl.Float64(), "m"),
+    "sv": (pl.Float64(), "m"),                    # |lowest height|
+    "sz": (pl.Float64(), "m"),
+    "sdq": (pl.Float64(), "1"),                   # RMS gradient
+    "sdr": (pl.Float64(), "1"),                   # developed interfacial area ratio (0.01 is 1 %)
+    "filters": (pl.String(), None),               # the F-operation and S-/L-filters applied
+}
+
 
 def schema(columns: Columns) -> dict[str, pl.DataType]:
     """The polars schema of a table declared as ``column: (type, unit)``."""
@@ -295,6 +314,7 @@ PENETRATION_SCHEMA = schema(PENETRATION_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
 SURFACE_ERROR_SCHEMA = schema(SURFACE_ERROR_COLUMNS)
 SECTION_SCHEMA = schema(SECTION_COLUMNS)
+AREAL_SCHEMA = schema(AREAL_COLUMNS)
 SECTION_BAND_SCHEMA = schema(SECTION_BAND_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
@@ -309,4 +329,4 @@ TABLES: dict[str, Columns] = {
     "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS, "von_meier": VON_MEIER_COLUMNS,
     "penetration": PENETRATION_COLUMNS,
 }
-TABLES.update({"sections": SECTION_COLUMNS, "section_bands": SECTION_BAND_COLUMNS})
+TABLES.update({"sections": SECTION_COLUMNS, "section_bands": SECTION_BAND_COLUMNS, "areal": AREAL_COLUMNS})
