@@ -21,9 +21,10 @@ sizes or checksum do not hold together.
 
 Why a reader of our own rather than SurfaceTopography (MIT, which reads X3P among ~40 formats):
 X3P is a zip, an XML record and a raw array, which the standard library and numpy read in full
-(reading is one ``numpy.frombuffer``); SurfaceTopography would add a compiled dependency tree
-(muFFT, NetCDF, its own C extensions) to read this one format, and raise its own exception types
-on bad files, where every roadtex reader raises ProfileFormatError naming the file. Its other
+(reading is one ``numpy.frombuffer``); SurfaceTopography is a large package with compiled
+extensions and dependencies of its own (its README once called installation "only possible on
+unix/linux systems"), pulled in to read this one format, and it raises its own exception types on
+bad files, where every roadtex reader raises ProfileFormatError naming the file. Its other
 formats are instrument files agencies rarely hold for roads; they can be added the same way.
 """
 
