@@ -68,7 +68,9 @@ def section_table(run_id: str, depth: MpdResult, section_length: float, etd_edit
     z, _ = remove_lines(depth.profile.heights[:used].reshape(starts.size, points),
                         depth.profile.positions[:used].reshape(starts.size, points))
     weight = valid.astype(np.float64)
-    moments = {k: np.bincount(section, weights=weight * np.sum(z ** k, axis=1), minlength=count) for k in (2, 3, 4)}
+    z2 = z * z   # products, not z ** k: numpy's generic power took 20 ms of a 100 m run's 23
+    moments = {k: np.bincount(section, weights=weight * np.sum(power, axis=1), minlength=count)
+               for k, power in ((2, z2), (3, z2 * z), (4, z2 * z2))}
     samples = np.bincount(section, weights=weight * points, minlength=count)
     total = np.bincount(section, minlength=count)
     n_valid = np.bincount(section, weights=weight, minlength=count)
