@@ -177,3 +177,31 @@ def test_the_report_draws_the_long_runs_along_the_road(job: Path, tmp_path: Path
     page = report.html.read_text()
     assert "Indicators along the road" in page and "per section of 1 m" in page
     assert (tmp_path / "figures" / "sections.png").stat().st_size > 1000
+
+
+PEER_TRACE_SCRIPT = """
+import json, sys
+import pandas as pd
+from captif_slp import Reading
+reading = Reading.from_trace(pd.read_csv(sys.argv[2]), alpha=3, segment_length_mm=100, target_sample_spacing_mm=0.5,
+                             evaluation_length_m=float(sys.argv[1]))
+print(json.dumps([{"mpd_mm": r["mpd"], "valid": int(r["valid_segments"])} for r in reading.mpd().to_dict("records")]))
+"""
+
+
+@pytest.mark.skipif(not PEER_PYTHON.exists(), reason="the captif-slp peer needs its own venv: create it with "
+                    "'bash scripts/peer-captif-slp.sh install' (about a minute; it pins numpy < 2)")
+def test_mpd_per_section_of_a_long_synthetic_run_matches_captif_slp(tmp_path: Path) -> None:
+    # 20 m of dense asphalt at 0.5 mm in 5 m sections, captif-slp's continuous mode (alpha 3,
+    # high-pass slope suppression): measured within 0.15 % in every section
+    profile = synthetic_pavement("dense_asphalt", 20.0, 0.5e-3, seed=11)
+    trace = tmp_path / "long.csv"
+    pl.DataFrame({"distance_mm": profile.positions * 1e3, "relative_height_mm": profile.heights * 1e3}).write_csv(trace)
+    out = subprocess.run([str(PEER_PYTHON), "-c", PEER_TRACE_SCRIPT, "5", str(trace)], capture_output=True, text=True,
+                         timeout=300, check=True)
+    theirs = json.loads(out.stdout.strip().splitlines()[-1])
+    ours = section_table("long", mpd(profile, slope_suppression="highpass"), 5.0)
+    assert ours.height == len(theirs) == 4 and not ours["partial"].any()
+    for mine, row in zip(ours.iter_rows(named=True), theirs):
+        assert mine["valid_baselines"] == row["valid"] == 50
+        assert mine["mpd"] == pytest.approx(row["mpd_mm"] * 1e-3, rel=5e-3)
