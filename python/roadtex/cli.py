@@ -100,6 +100,7 @@ def process_command(args: argparse.Namespace) -> int:
             error_budget_db=error_budget(args.error_budget),
             band_kind=args.bands, band_method=args.band_method, speed_kmh=args.speed, keep_profiles=args.keep_profiles,
             allow_implausible=args.allow_implausible,
+            section_length=args.section_length, etd_edition=args.etd_edition,
             reader_defaults={k: v for k, v in reader_defaults.items() if v is not None})
         with warnings.catch_warnings():
             # the plausibility of E and P was settled above (--allow-implausible)
@@ -292,6 +293,12 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--poisson", type=float, default=defaults.poisson, help="rubber Poisson ratio (default 0.5)")
     parser.add_argument("--segment-length", type=float, default=defaults.segment_length, metavar="M",
                         help="segment length in m for the periodic contact model (default 0.5)")
+    parser.add_argument("--section-length", type=float, default=defaults.section_length, metavar="M",
+                        help="length in m of the reporting sections of line runs (sections.parquet: MPD, ETD, Rq, "
+                             "Rsk, Rku, band levels per section; default 10)")
+    parser.add_argument("--etd-edition", choices=("2019", "1997"), default=defaults.etd_edition,
+                        help="ISO 13473-1 edition of the ETD in sections.parquet: 2019 (1.1 MPD, default) or "
+                             "1997 (0.2 mm + 0.8 MPD)")
     parser.add_argument("--overlap", type=float, default=defaults.segment_overlap, metavar="M",
                         help="overlap of consecutive segments in m (default 0)")
     parser.add_argument("--dx", type=float, default=None, metavar="M",

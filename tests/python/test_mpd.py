@@ -10,7 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from roadtex.errors import InvalidInputError
 from roadtex.profiles import Profile, mpd, read_profile
+from roadtex.profiles.mpd import estimated_texture_depth
 
 REPO = Path(__file__).resolve().parents[2]
 PEER_VENV = REPO / ".venv-peers"
@@ -88,9 +90,21 @@ def test_highpass_slope_suppression_also_removes_long_waves():
     assert result.parameters["highpass_wavelength"] == 0.1742
 
 
-def test_etd_is_two_tenths_of_a_millimetre_plus_eight_tenths_of_mpd():
+def test_etd_follows_the_edition_named_2019_by_default():
+    # 2019: ETD = 1.1 MPD; 1997: ETD = 0.2 mm + 0.8 MPD (both at a cosine whose MPD is known)
+    depth = sampled_crest(0.8e-3, 10e-3)
     result = mpd(cosine(0.8e-3), lowpass_wavelength=None)
-    assert result.etd == pytest.approx(0.2e-3 + 0.8 * sampled_crest(0.8e-3, 10e-3), rel=1e-9)
+    assert result.etd == pytest.approx(1.1 * depth, rel=1e-9)
+    assert result.parameters["etd_edition"] == "2019"
+    old = mpd(cosine(0.8e-3), lowpass_wavelength=None, etd_edition="1997")
+    assert old.etd == pytest.approx(0.2e-3 + 0.8 * depth, rel=1e-9)
+    # the two editions agree at MPD = 2/3 mm only
+    assert estimated_texture_depth(2e-3 / 3, "2019") == pytest.approx(estimated_texture_depth(2e-3 / 3, "1997"))
+
+
+def test_an_unknown_etd_edition_is_refused():
+    with pytest.raises(InvalidInputError, match="etd_edition"):
+        mpd(cosine(0.8e-3), etd_edition="2004")
 
 
 def triangle(amplitude: float, n: int = 2000, wavelength: float = 10e-3) -> np.ndarray:

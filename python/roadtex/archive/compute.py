@@ -19,6 +19,7 @@ from roadtex.archive.schemas import (
     SAMPLING_BAND_COLUMNS,
     SEGMENT_SCHEMA,
 )
+from roadtex.archive.sections import section_band_table, section_table
 from roadtex.budget.sampling import STATEMENT_SCHEMA, run_statement
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
@@ -233,6 +234,10 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
             pl.lit(sampling_dx, dtype=pl.Float64).alias("sampling_dx"),
             pl.lit(resolved_to, dtype=pl.Float64).alias("contact_resolved_to")),
     }
+    sections = run_stage("mpd", lambda: section_table(run["run_id"], depth, options.section_length, options.etd_edition))
+    tables["sections"] = sections
+    tables["section_bands"] = run_stage("spectra", lambda: section_band_table(
+        sections, tables["bands"], segments.starts, options.section_length))
     if options.keep_profiles:
         tables["profiles"] = stitched_profiles(run["run_id"], segments, moduli, profile_envelopes, profile_pressures)
     return {**tables, **notes}

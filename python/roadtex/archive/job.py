@@ -26,6 +26,7 @@ from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions
 from roadtex.archive.plan import JobPlan, group_key, plan_job
 from roadtex.archive.schemas import (
+    AREAL_SCHEMA,
     BAND_SCHEMA,
     EDGE_EFFECT_SCHEMA,
     ERROR_SCHEMA,
@@ -35,6 +36,8 @@ from roadtex.archive.schemas import (
     RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
     RUN_SCHEMA,
+    SECTION_BAND_SCHEMA,
+    SECTION_SCHEMA,
     SEGMENT_SCHEMA,
     SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
@@ -75,9 +78,14 @@ log = logging.getLogger("roadtex.archive")
 Engine = Literal["local", "dask"]
 #: The tables the job makes from each run's example segment for the report (the seed's figures 2.1, 4.3).
 COMPARISON_TABLES = {"von_meier": VON_MEIER_SCHEMA, "penetration": PENETRATION_SCHEMA}
+#: The tables per section of road of each line run (:mod:`roadtex.archive.sections`).
+SECTION_TABLES = {"sections": SECTION_SCHEMA, "section_bands": SECTION_BAND_SCHEMA}
+#: Tables of some runs only (line runs: sections; surface runs: areal parameters), combined from those that have them.
+SECTION_TABLES["areal"] = AREAL_SCHEMA
 #: Units of ProcessingOptions' fields, recorded in parameters.json.
 OPTION_UNITS = {"youngs_moduli": "Pa", "mean_pressure": "Pa", "segment_length": "m", "segment_overlap": "m",
                 "dx": "m", "speed_kmh": "km/h", "tol": "1", "poisson": "1", "error_budget_db": "dB"}
+OPTION_UNITS["section_length"] = "m"
 
 
 @dataclass(frozen=True)
@@ -182,7 +190,7 @@ def process_run(run: dict[str, Any], options: ProcessingOptions, out_dir: str | 
             if tables.get(note) is not None:
                 status[note] = tables[note]
     for stale in ("example", "segments", "bands", "run", "profiles", "surface_example", "level_errors",
-                  *COMPARISON_TABLES):
+                  *COMPARISON_TABLES, *SECTION_TABLES):
         if status["state"] != "ok" or tables.get(stale) is None:  # failed, or not made this time
             (run_dir / f"{stale}.parquet").unlink(missing_ok=True)
     write_json(run_dir / STATUS_FILE, status)
@@ -345,7 +353,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     out = Path(out_dir)
     options_fingerprint = options.fingerprint()
     parts: dict[str, list[Path]] = {"segments": [], "bands": [], "runs": [], "examples": [], "surface_examples": [],
-                                    **{name: [] for name in COMPARISON_TABLES}}
+                                    **{name: [] for name in COMPARISON_TABLES}, **{name: [] for name in SECTION_TABLES}}
     errors: list[dict[str, Any]] = []
     surface_error_files: list[Path] = []
     pilot_notes: dict[str, str] = {}
@@ -369,6 +377,9 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
                 comparisons = comparison_tables(pl.read_parquet(run_dir / "example.parquet"), options.mean_pressure)
                 for name, frame in comparisons.items():
                     write_atomically(run_dir / f"{name}.parquet", lambda p, t=frame: t.write_parquet(p, statistics=True))
+        for name in SECTION_TABLES:   # line runs' sections, surface runs' areal parameters
+            if (run_dir / f"{name}.parquet").exists():
+                parts[name].append(run_dir / f"{name}.parquet")
         if (run_dir / "surface_example.parquet").exists():
             parts["surface_examples"].append(run_dir / "surface_example.parquet")
         if (run_dir / "level_errors.parquet").exists():
@@ -376,7 +387,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
         if status.get("pilot_note"):
             pilot_notes[run["run_id"]] = status["pilot_note"]
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
-               "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES}
+               "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES, **SECTION_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     estimates = run_estimates(manifest, parts["runs"], plan)
     # the plan (its pilot, error estimates and speed-up) covers line runs only; surface runs have

@@ -28,7 +28,7 @@ from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
 #: File suffixes :func:`build_manifest` lists as profile files.
-PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg"}
+PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg", ".x3p"}
 #: The longest run id (UTF-8 bytes): it names the run's output folder (file systems: 255 bytes a name).
 MAX_RUN_ID_BYTES = 200
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
@@ -313,10 +313,10 @@ def column_hints(unknown: Sequence[str], known: Sequence[str]) -> str:
 def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, read_metadata: bool = True) -> pl.DataFrame:
     """Lists the profile files of a folder as a manifest (one run per file, sorted by path).
 
-    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet or .crg are listed, except
+    Files with suffix .dat (CAPTIF), .csv, .tsv, .txt, .npy, .parquet, .crg or .x3p are listed, except
     hidden files, files named ``manifest*`` (a manifest kept beside its data) and folders holding a
     job's outputs (:func:`job_output_folders`: ``roadtex process --out`` inside the survey folder). 3-D surfaces
-    (:func:`roadtex.surfaces.readers.is_surface_file`: OpenCRG, a 2-D ``.npy``, a table with x,
+    (:func:`roadtex.surfaces.readers.is_surface_file`: OpenCRG, ISO 25178-72 X3P, a 2-D ``.npy``, a table with x,
     y and z columns) get ``format`` "surface" and are processed as surface runs. With
     ``read_metadata`` each file is read and the metadata it carries (site, wheel path, date,
     device, direction) fills the manifest columns, and a profile's ``format`` is the one it was
@@ -336,13 +336,13 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
     if not files:
         others = unlisted_files(root, recursive=recursive)
         found = f"; not listed: {'; '.join(others[:5])}{' ...' if len(others) > 5 else ''}" if others else ""
-        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet, .crg) in {root}{found}")
+        raise ManifestError(f"no profile files (.dat, .csv, .tsv, .txt, .npy, .parquet, .crg, .x3p) in {root}{found}")
     rows = []
     for path in files:
         row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
         # a 3-D surface (OpenCRG, 2-D .npy, a table of x, y, z columns) is a surface run, whether
         # or not it reads as it is (a .npy without dx): the job then records why it fails
-        surface = path.suffix.lower() == ".crg" or is_surface_file(path)
+        surface = path.suffix.lower() in (".crg", ".x3p") or is_surface_file(path)
         if surface:
             row["format"] = "surface"
         if read_metadata:

@@ -22,6 +22,7 @@ from roadtex._core import __version__
 from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
 from roadtex.errors import InvalidInputError
 from roadtex.models.grid import check_interpolant, check_refine
+from roadtex.profiles.mpd import estimated_texture_depth
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.profiles.units import unit_factor
 from roadtex.spectra.bands import check_band_kind
@@ -117,6 +118,10 @@ class ProcessingOptions:
             outside 0.02 to 3 MPa (given in Pa), which are refused by default (MPa given as Pa is
             the usual cause). Not part of the fingerprint: it changes nothing a processed run
             computes (a run it refused stays on record as failed until ``--retry-failed``).
+        section_length: length of the reporting sections of line runs (m; sections.parquet,
+            :mod:`roadtex.archive.sections`); 10 m by default, 20 m and 100 m are common.
+        etd_edition: the ISO 13473-1 edition whose MPD-to-ETD transformation sections.parquet's
+            ETD follows ("2019": 1.1 MPD; "1997": 0.2 mm + 0.8 MPD).
         reader_defaults: :func:`roadtex.read_profile` options for every run (``distance_unit``,
             ``height_unit``, ``delimiter``, ``decimal``, ``dx`` in m, ...); manifest columns of the
             same names override them per run.
@@ -145,6 +150,8 @@ class ProcessingOptions:
     keep_profiles: bool = False
     allow_implausible: bool = False
     reader_defaults: dict[str, object] = field(default_factory=dict)
+    section_length: float = 10.0
+    etd_edition: str = "2019"
 
     def __post_init__(self) -> None:
         moduli = tuple(positive(e, "youngs_moduli", "Pa") for e in np.atleast_1d(self.youngs_moduli))
@@ -189,6 +196,8 @@ class ProcessingOptions:
             if value is not None:
                 object.__setattr__(self, name, positive(value, name, unit))
         check_band_kind(self.band_kind)
+        object.__setattr__(self, "section_length", positive(self.section_length, "section_length", "m"))
+        estimated_texture_depth(0.0, self.etd_edition)   # refuses an unknown edition
         if self.band_method not in ("dft", "filter"):
             raise InvalidInputError(f"band_method must be 'dft' or 'filter', got {self.band_method!r}")
         unknown = set(self.reader_defaults) - set(READ_OPTIONS)

@@ -250,6 +250,62 @@ EDGE_EFFECT_COLUMNS: Columns = {
     "mean_pressure": (pl.Float64(), "Pa"),
 }
 
+SECTION_COLUMNS: Columns = {                      # line runs, one row per run and section (roadtex.archive.sections)
+    "run_id": (pl.String(), None),
+    "section": (pl.Int64(), "count"),             # 0, 1, ... along the run
+    "start": (pl.Float64(), "m"),                 # chainage as the file gives it (its own distances)
+    "end": (pl.Float64(), "m"),
+    "length": (pl.Float64(), "m"),                # end - start: the section length, less in a partial section
+    "partial": (pl.Boolean(), None),              # shorter than the job's section_length
+    "note": (pl.String(), None),                  # why it is partial (run shorter than a section, its last part)
+    "baselines": (pl.Int64(), "count"),           # ISO 13473-1 100 mm baselines starting in the section
+    "valid_baselines": (pl.Int64(), "count"),
+    "valid_baseline_fraction": (pl.Float64(), "1"),
+    "mpd": (pl.Float64(), "m"),                   # mean MSD of the valid baselines; null if none
+    "mpd_valid": (pl.Boolean(), None),            # at least half the baselines valid (ISO 13473-1)
+    "etd": (pl.Float64(), "m"),                   # estimated texture depth after etd_edition
+    "etd_edition": (pl.String(), None),           # ISO 13473-1 edition of the ETD transformation ("2019", "1997")
+    "rq": (pl.Float64(), "m"),                    # RMS height of the texture profile (valid baselines, lines removed)
+    "rsk": (pl.Float64(), "1"),                   # skewness
+    "rku": (pl.Float64(), "1"),                   # kurtosis (3 for Gaussian heights)
+    "dropout_fraction": (pl.Float64(), "1"),      # raw readings missing, mean over the baselines
+    "spike_fraction": (pl.Float64(), "1"),        # samples flagged as spikes, mean over the baselines
+}
+SECTION_BAND_COLUMNS: Columns = {                 # line runs, per section, E and band (join sections on run_id, section)
+    "run_id": (pl.String(), None),
+    "section": (pl.Int64(), "count"),
+    "start": (pl.Float64(), "m"),
+    "end": (pl.Float64(), "m"),
+    "youngs_modulus": (pl.Float64(), "Pa"),
+    "band": (pl.Int64(), "1"),
+    "label": (pl.String(), None),
+    "centre_wavelength": (pl.Float64(), "m"),
+    "reported": (pl.Boolean(), None),             # as in bands.parquet
+    "segments": (pl.Int64(), "count"),            # contact segments starting in the section
+    "texture_level": (pl.Float64(), "dB re 1 um"),     # energy average of the segments' levels
+    "enveloped_level": (pl.Float64(), "dB re 1 um"),
+    "pressure_level": (pl.Float64(), "dB re 1 Pa"),
+}
+
+AREAL_COLUMNS: Columns = {                        # surface runs: ISO 25178-2 parameters (roadtex.surfaces.areal)
+    "run_id": (pl.String(), None),
+    "scope": (pl.String(), None),                 # "run" (the conditioned surface) or "tile" (as solved)
+    "tile": (pl.Int64(), "count"),                # null for the run's row
+    "start": (pl.Float64(), "m"),                 # along the road
+    "end": (pl.Float64(), "m"),
+    "width": (pl.Float64(), "m"),                 # across the road
+    "sa": (pl.Float64(), "m"),
+    "sq": (pl.Float64(), "m"),
+    "ssk": (pl.Float64(), "1"),                   # null on a flat area
+    "sku": (pl.Float64(), "1"),
+    "sp": (pl.Float64(), "m"),
+    "sv": (pl.Float64(), "m"),                    # |lowest height|
+    "sz": (pl.Float64(), "m"),
+    "sdq": (pl.Float64(), "1"),                   # RMS gradient
+    "sdr": (pl.Float64(), "1"),                   # developed interfacial area ratio (0.01 is 1 %)
+    "filters": (pl.String(), None),               # the F-operation and S-/L-filters applied
+}
+
 
 def schema(columns: Columns) -> dict[str, pl.DataType]:
     """The polars schema of a table declared as ``column: (type, unit)``."""
@@ -278,6 +334,9 @@ VON_MEIER_SCHEMA = schema(VON_MEIER_COLUMNS)
 PENETRATION_SCHEMA = schema(PENETRATION_COLUMNS)
 PILOT_SCHEMA = schema(PILOT_COLUMNS)
 SURFACE_ERROR_SCHEMA = schema(SURFACE_ERROR_COLUMNS)
+SECTION_SCHEMA = schema(SECTION_COLUMNS)
+AREAL_SCHEMA = schema(AREAL_COLUMNS)
+SECTION_BAND_SCHEMA = schema(SECTION_BAND_COLUMNS)
 #: Columns the job adds when it combines the per-run tables: what the plan says (its error
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
 #: The band columns of the sampling statement (null until a line run's own is joined, and for surface runs).
@@ -294,3 +353,4 @@ TABLES: dict[str, Columns] = {
     "pilot": PILOT_COLUMNS, "surface_examples": SURFACE_EXAMPLE_COLUMNS, "von_meier": VON_MEIER_COLUMNS,
     "penetration": PENETRATION_COLUMNS,
 }
+TABLES.update({"sections": SECTION_COLUMNS, "section_bands": SECTION_BAND_COLUMNS, "areal": AREAL_COLUMNS})

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+from roadtex.archive.areal_outputs import areal_table
 from roadtex.archive.compute import plausibility_notes, run_stage, segment_mpd
 from roadtex.archive.options import ProcessingOptions
 from roadtex.archive.schemas import (
@@ -134,6 +135,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         ``surface_example``: the middle tile solved at the middle modulus (for the report); and
         ``level_errors`` (SURFACE_ERROR_SCHEMA; None without an error budget, or when the areal
         pilot could not run): the error estimate of each model's levels per band;
+        ``areal``: ISO 25178-2 parameters of the surface and of each tile (AREAL_SCHEMA);
         ``pilot_note`` (a string, not a table): why the pilot could not run, else None; and the
         notes on plausibility, ``implausible_note`` and ``sampling_note``
         (:func:`~roadtex.archive.compute.plausibility_notes`).
@@ -226,6 +228,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
             pl.col("frequency").fill_nan(None),
             *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
         "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol, refine),
+        "areal": run_stage("segment", lambda: areal_table(run["run_id"], surface, tiles)),
         **notes,
     }
 

@@ -15,7 +15,32 @@ from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.trend import remove_lines
 
-_ETD_OFFSET = 0.2e-3  # m, ISO 13473-1: ETD = 0.2 mm + 0.8 MPD
+ETD_EDITIONS = ("2019", "1997")
+
+
+def estimated_texture_depth(mean_profile_depth: float, edition: str = "2019") -> float:
+    """Estimated texture depth (ETD, m) from a mean profile depth (m), after the edition of ISO 13473-1 named.
+
+    - ``"2019"``: ETD = 1.1 MPD, the transformation of ISO 13473-1:2019 (second edition), the clause
+      on transforming MPD into ETD, as the public TextureLab white paper (a pavement tool
+      implementing ISO 13473-1:2019 from the standard's text) quotes it: "ETD = 1.1 · MPD, the 2019
+      formula; the old 0.2 + 0.8 · MPD is not used". The standard's own text was not publicly
+      readable here: the 1.1 factor rests on that one secondary source, so the edition is a
+      parameter and every table that holds an ETD names the edition used.
+    - ``"1997"``: ETD = 0.2 mm + 0.8 MPD, the transformation of ISO 13473-1:1997 (first edition,
+      also ASTM E1845's long-standing form), kept for series reported under the old edition.
+
+    ETD estimates the mean texture depth of the volumetric patch method (ISO 13036-1); it is only
+    as good as that correlation.
+
+    Raises:
+        InvalidInputError: an edition other than "2019" or "1997".
+    """
+    if edition == "2019":
+        return 1.1 * mean_profile_depth
+    if edition == "1997":
+        return 0.2e-3 + 0.8 * mean_profile_depth
+    raise InvalidInputError(f"etd_edition must be one of {ETD_EDITIONS} (ISO 13473-1 editions), got {edition!r}")
 
 
 @dataclass(frozen=True)
@@ -24,7 +49,8 @@ class MpdResult:
 
     Attributes:
         mpd: mean profile depth (m): the mean MSD of the valid segments (NaN if none is valid).
-        etd: estimated texture depth (m): 0.2 mm + 0.8 MPD (ISO 13473-1, the sand-patch equivalent).
+        etd: estimated texture depth (m) after the ISO 13473-1 edition in ``parameters["etd_edition"]``
+            (:func:`estimated_texture_depth`: 1.1 MPD for 2019, 0.2 mm + 0.8 MPD for 1997).
         std: standard deviation of the valid segments' MSD (m; NaN with fewer than 2).
         segments: one row per 100 mm segment: ``segment`` (number), ``start`` and ``end`` (m),
             ``msd`` (m), ``valid``, ``dropout_fraction`` (raw readings missing), ``spike_fraction``
@@ -92,7 +118,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         slope_suppression: Literal["regression", "highpass"] = "regression",
         highpass_wavelength: float = 0.1742, trim_plates: bool = True,
         max_dropout_fraction: float = 0.10, max_spike_fraction: float = 0.05,
-        min_valid_fraction: float = 0.5) -> MpdResult:
+        min_valid_fraction: float = 0.5, etd_edition: str = "2019") -> MpdResult:
     """Mean profile depth after ISO 13473-1:2019, from a raw or conditioned profile.
 
     The chain, in the standard's order:
@@ -120,6 +146,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
        drop-outs and at most ``max_spike_fraction`` (5 %) of its samples are spikes. MPD is the
        mean MSD of the valid segments; the result is valid when at least ``min_valid_fraction``
        (50 %) of the segments are.
+    9. ETD from MPD after ``etd_edition`` of ISO 13473-1 (:func:`estimated_texture_depth`).
 
     Differences from captif-slp 0.22 (the peer this is checked against), kept on purpose:
 
@@ -154,6 +181,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     max_dropout = fraction(max_dropout_fraction, "max_dropout_fraction")
     max_spike = fraction(max_spike_fraction, "max_spike_fraction")
     min_valid = fraction(min_valid_fraction, "min_valid_fraction")
+    estimated_texture_depth(0.0, etd_edition)  # a bad edition fails before the work
     if slope_suppression not in ("regression", "highpass"):
         raise InvalidInputError(f"slope_suppression must be 'regression' or 'highpass', got {slope_suppression!r}")
     if not isinstance(profile, Profile):
@@ -226,7 +254,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
         "lowpass_wavelength": lowpass_wavelength, "slope_suppression": slope_suppression,
         "highpass_wavelength": highpass_wavelength if slope_suppression == "highpass" else None,
         "trim_plates": bool(trim_plates), "max_dropout_fraction": max_dropout,
-        "max_spike_fraction": max_spike, "min_valid_fraction": min_valid,
+        "max_spike_fraction": max_spike, "min_valid_fraction": min_valid, "etd_edition": etd_edition,
     }
     unused = (resampled.heights.size - used) * spacing
     summary = (f"mpd({', '.join(f'{k}={v}' for k, v in parameters.items())}): MPD "
@@ -236,7 +264,7 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     used_profile = Profile(filled.heights, filled.positions, filled.dx, filled.metadata,
                            filled.history + (summary,))
     share_valid = n_valid / n_segments
-    return MpdResult(mpd=mean_depth, etd=_ETD_OFFSET + 0.8 * mean_depth if n_valid else float("nan"),
+    return MpdResult(mpd=mean_depth, etd=estimated_texture_depth(mean_depth, etd_edition) if n_valid else float("nan"),
                      std=std, segments=table, valid_segments=n_valid, valid_fraction=share_valid,
                      is_valid=share_valid >= min_valid, profile=used_profile, unused_length=unused,
                      parameters=parameters)

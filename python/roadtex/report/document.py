@@ -65,6 +65,7 @@ from roadtex.report.error_budget import (
 )
 from roadtex.report.profile_figures import fig_edge_effect, fig_envelopes, fig_pressures, fig_valley_penetration, fig_von_meier
 from roadtex.report.sampling_section import sampling_section
+from roadtex.report.section_figures import sections_part
 from roadtex.report.spectra_figures import fig_pressure_spectra, fig_pressure_vs_texture, fig_speed_vs_error, fig_texture_spectra
 from roadtex.report.surface_figures import (
     AGREEMENT_DB,
@@ -408,6 +409,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
         "<h2>Regressions of pressure level on texture level, per octave band and E</h2>",
         html_table(regression_table(regressions), classes="regressions"),
         *surface_section(results),
+        *sections_part(results.root, figures_dir),
         "</body></html>",
     ]
     report_path = out / "report.html"

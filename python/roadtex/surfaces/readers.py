@@ -1,4 +1,5 @@
-"""Reading road surface files: 2-D ``.npy``, long tables (x, y, z) in Parquet or CSV, OpenCRG ``.crg``."""
+"""Reading road surface files: 2-D ``.npy``, long tables (x, y, z) in Parquet or CSV, OpenCRG ``.crg``,
+ISO 25178-72 ``.x3p`` (:mod:`roadtex.surfaces.x3p`)."""
 
 from __future__ import annotations
 
@@ -28,9 +29,10 @@ from roadtex.profiles.readers.text import (
 )
 from roadtex.profiles.units import unit_factor
 from roadtex.surfaces.surface import Surface
+from roadtex.surfaces.x3p import read_x3p_grid
 
 #: Formats :func:`read_surface` reads.
-SURFACE_FORMATS = ("crg", "csv", "npy", "parquet")
+SURFACE_FORMATS = ("crg", "csv", "npy", "parquet", "x3p")
 #: The options :func:`read_surface` takes, with their types (for a bulk job's manifest columns).
 SURFACE_READ_OPTIONS: dict[str, type] = {
     "dx": float, "dy": float, "height_unit": str, "distance_unit": str, "x_column": str, "y_column": str,
@@ -77,7 +79,7 @@ def is_surface_file(path: str | Path) -> bool:
     try:
         head = file_head(file, 4096)
         fmt = guess_surface_format(file, head)
-        if fmt == "crg":
+        if fmt in ("crg", "x3p"):
             return True
         if fmt == "npy":
             shape = np.load(file, mmap_mode="r", allow_pickle=False).shape
@@ -107,6 +109,8 @@ def guess_surface_format(path: Path, head: bytes) -> str:
     if head.startswith(b"PAR1"):
         return "parquet"
     suffix = path.suffix.lower()
+    if suffix == ".x3p":
+        return "x3p"
     if suffix == ".crg" or head.lstrip().startswith((b"$CT", b"$ROAD_CRG", b"$KD_DEFINITION", b"$!")):
         return "crg"
     if suffix in (".parquet", ".pq"):
@@ -138,6 +142,11 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
       and ``z`` is taken relative to the reference line (its slope, banking and curvature are the
       road's geometry, not its texture): u along the road is x, v across is y (rows from right to
       left, v increasing).
+    - ``"x3p"``: ISO 25178-72 (a zip of ``main.xml`` and binary data, :mod:`roadtex.surfaces.x3p`):
+      spacings and origin from the X and Y axes' increments and offsets, heights from the Z data
+      (int16, int32, float32, float64, scaled by its increment), all in metres as the format
+      states; invalid points (NaN, the valid-points mask) are drop-outs. ``dx``, ``dy`` and
+      ``height_unit`` are the file's and cannot be given.
 
     Warns:
         ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
@@ -166,6 +175,8 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
             surface = read_npy_surface(file, name, options)
         elif fmt == "crg":
             surface = read_crg(file, name, options)
+        elif fmt == "x3p":
+            surface = read_x3p(file, name, options)
         else:
             surface = read_long_table(file, name, fmt, options)
     except (ProfileFormatError, InvalidInputError) as exc:
@@ -406,3 +417,14 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
     # OpenCRG is in metres by definition; a dx given instead of the file's increment is a bare number
     set_distance_unit(metadata, "m (OpenCRG)" if options.get("dx") is None else None)
     return finish(name, "crg", heights, dx, dy, metadata, [], float(grid.u[0]), float(v[0]))
+
+
+def read_x3p(path: Path, name: str, options: dict) -> Surface:
+    """An ISO 25178-72 X3P surface; see :func:`read_surface` and :mod:`roadtex.surfaces.x3p`."""
+    given = [key for key in ("dx", "dy", "height_unit", "distance_unit") if options.get(key) is not None]
+    if given:
+        raise InvalidInputError(f"{name}: an X3P file states its spacings and units (SI) itself; "
+                                f"{', '.join(given)} cannot be given")
+    heights, dx, dy, x0, y0, metadata = read_x3p_grid(path, name)
+    set_distance_unit(metadata, "m (X3P)")
+    return finish(name, "x3p", heights, dx, dy, metadata, [], x0, y0)
