@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import polars as pl
 
 from roadtex.archive import ProcessingOptions, build_manifest, process
@@ -448,3 +449,16 @@ def test_demo_refuses_implausible_moduli_as_process_does(tmp_path: Path, capsys)
     err = capsys.readouterr().err
     assert err.startswith("roadtex demo: error: --moduli 0.001 MPa is outside the plausible range"), err
     assert "Traceback" not in err and not (tmp_path / "demo").exists()
+
+
+def test_a_sidecar_is_not_named_as_a_file_left_out(tmp_path: Path) -> None:
+    # walk on agency-style data: a 2-D .npy surface with its x.npy.json sidecar (dx, dy) was listed
+    # as a file left out ("suffix '.json', not one of the profile files'"), though it is read with x.npy
+    from roadtex.archive.manifest import unlisted_files
+
+    np.save(tmp_path / "surface.npy", np.zeros((8, 64)))
+    (tmp_path / "surface.npy.json").write_text('{"dx": 0.001, "dy": 0.001}')
+    (tmp_path / "notes.json").write_text("{}")
+    notes = unlisted_files(tmp_path)
+    assert not any(n.startswith("surface.npy.json") for n in notes)
+    assert any(n.startswith("notes.json") for n in notes)   # a .json of no profile is still named

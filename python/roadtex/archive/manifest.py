@@ -100,6 +100,9 @@ def unlisted_files(folder: str | os.PathLike[str], *, recursive: bool = True) ->
     for path in candidate_files(root, recursive):
         if path.suffix.lower() in PROFILE_SUFFIXES:
             continue
+        if path.suffix.lower() == ".json" and Path(path.as_posix()[:-5]).suffix.lower() in PROFILE_SUFFIXES \
+                and Path(path.as_posix()[:-5]).is_file():
+            continue   # a sidecar (x.npy.json: dx, dy and units of x.npy), read with its file
         name = path.relative_to(root).as_posix()
         if path.suffix.lower() in COMPRESSED_SUFFIXES:
             notes.append(f"{name}: compressed ({path.suffix}); roadtex reads no compressed files: decompress it "
