@@ -170,7 +170,7 @@ def usable_cores() -> int:
     import os
 
     try:
-        return len(os.sched_getaffinity(0))
+        return len(os.sched_getaffinity(0))   # portable: guarded (AttributeError off Linux)
     except (AttributeError, OSError):
         return os.cpu_count() or 1
 

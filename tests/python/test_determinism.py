@@ -159,7 +159,8 @@ def test_bulk_job_tables_are_identical_with_1_and_2_threads(tmp_path: Path):
         outs.append(out)
     names = ["segments", "bands", "runs", "errors", "examples", "edge_effect", "von_meier", "penetration"]
     per_run = sorted(p.relative_to(outs[0]) for p in (outs[0] / "runs").glob("*/*.parquet"))
-    assert len(per_run) == 18  # segments, bands, run, example, von_meier, penetration per run
+    # segments, bands, run, example, von_meier, penetration, sections, section_bands per run
+    assert len(per_run) == 24
     for out in outs[1:]:
         for name in names:
             a, b = pl.read_parquet(outs[0] / f"{name}.parquet"), pl.read_parquet(out / f"{name}.parquet")

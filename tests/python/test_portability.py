@@ -25,10 +25,15 @@ def package_sources():
 
 
 def test_no_posix_only_calls_modules_or_paths() -> None:
+    # a line marked "# portable:" says how it is guarded (a POSIX branch beside a Windows one, an
+    # AttributeError caught): the marker names the guard, which a reviewer checks
     offenders = []
     for path, tree in package_sources():
         where = path.relative_to(PACKAGE)
+        lines = path.read_text(encoding="utf-8").splitlines()
         for node in ast.walk(tree):
+            if hasattr(node, "lineno") and "# portable:" in lines[node.lineno - 1]:
+                continue
             if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and (node.value.id, node.attr) in POSIX_ONLY:
                 offenders.append(f"{where}:{node.lineno} {node.value.id}.{node.attr}")
             elif isinstance(node, ast.Import | ast.ImportFrom):

@@ -251,8 +251,11 @@ def test_sampling_limited_bands_are_hatched_in_the_contact_spectra(drawn, result
         assert set(titled) == set(bands["pavement"].unique()), name
         for ax in panels:
             pavement = next(t for t, a in titled.items() if a.get_position().x0 == ax.get_position().x0)
-            ticks = [t.get_text() for t in ax.get_xticklabels()] or [t.get_text() for t in panels[-1].get_xticklabels()]
-            hatched = {ticks[round((p.get_bbox().x0 + p.get_bbox().x1) / 2)] for p in ax.patches
+            column = [a for a in panels if a.get_position().x0 == ax.get_position().x0]
+            labelled = column[-1]   # the bottom panel of the column carries the band labels
+            positions = np.asarray(labelled.get_xticks())
+            names = [t.get_text() for t in labelled.get_xticklabels()]
+            hatched = {names[int(np.argmin(np.abs(positions - (p.get_x() + p.get_width() / 2))))] for p in ax.patches
                        if p.get_gid() == "sampling_limited"}
             assert all(p.get_hatch() for p in ax.patches if p.get_gid() == "sampling_limited")
             assert hatched == flagged.get(pavement, set()), (name, pavement)

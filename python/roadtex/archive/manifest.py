@@ -38,7 +38,7 @@ COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tg
 def json_has(path: Path, key: str) -> bool:
     """Whether ``path`` is a JSON object holding ``key`` (False for anything else)."""
     try:
-        return path.is_file() and key in json.loads(path.read_text())
+        return path.is_file() and key in json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError, TypeError):
         return False
 
@@ -355,8 +355,9 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                     with judged_once():   # judged below as the job judges it, and warned about once
                         read = read_surface(path)
                     metadata = read.metadata
-                    implausible = implausible_surface(read.heights, read.dx, path.name,
-                                                      interval_stated=stated_distance_unit(metadata) is not None)
+                    stated = stated_distance_unit(metadata)
+                    implausible = implausible_surface(read.heights, read.dx, path.name, interval_stated=stated is not None)
+                    coarse = coarse_sampling(read.dx, path.name, stated) if stated is not None else None
                 else:
                     with judged_once():   # judged below, and warned about once
                         profile = read_profile(path)
@@ -376,7 +377,7 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                               "its header lacks (distance_unit, height_unit; a wrong unit in the header must be "
                               "corrected in the file) or, for heights only, dx in metres; --allow-implausible "
                               "processes it as read", ImplausibleTextureWarning, stacklevel=2)
-            elif coarse is not None:   # as read_surface warns for surfaces
+            elif coarse is not None:   # what process will warn of (the readers' own warning is silenced above)
                 warnings.warn(coarse, CoarseSamplingWarning, stacklevel=2)
             for name in METADATA_COLUMNS:
                 if name in metadata and metadata[name] is not None:

@@ -68,19 +68,19 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
             os.fsync(stream.fileno())
         os.replace(temporary, path)
     except BaseException as exc:
-        temporary.unlink(missing_ok=True)
+        try:
+            temporary.unlink(missing_ok=True)
+            cleanup_note = ""
+        except OSError as cleanup:
+            # a file system turned read-only refuses the cleanup too: the write's error is the one to report
+            cleanup_note = f" (and its temporary file {temporary.name} could not be removed: {cleanup.strerror or cleanup})"
         if not isinstance(exc, Exception):   # Ctrl-C while writing: no temporary left behind, and it stops
             raise
         # polars reports a full disk as its own ComputeError ("... os error 28"), not OSError:
         # any failure to write output is a write failure, and stops the job.
         code = exc.errno if isinstance(exc, OSError) else None
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        try:
-            temporary.unlink(missing_ok=True)
-        except OSError as cleanup:
-            # a file system turned read-only refuses the cleanup too: the write's error is the one to report
-            reason += f" (and its temporary file {temporary.name} could not be removed: {cleanup.strerror or cleanup})"
-        raise write_error(code, f"cannot write {path}: {reason}") from exc
+        raise write_error(code, f"cannot write {path}: {reason}{cleanup_note}") from exc
 
 
 def write_error(code: int | None, message: str) -> ArchiveWriteError:
@@ -151,7 +151,7 @@ def lock_exclusively(handle: IO[str]) -> None:
         finally:
             handle.seek(position)
     else:
-        import fcntl
+        import fcntl  # portable: POSIX branch (msvcrt on Windows)
 
         fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
 
@@ -163,7 +163,7 @@ def unlock(handle: IO[str]) -> None:
         handle.seek(WINDOWS_LOCK_OFFSET)
         msvcrt.locking(handle.fileno(), msvcrt.LK_UNLCK, 1)
     else:
-        import fcntl
+        import fcntl  # portable: POSIX branch (msvcrt on Windows)
 
         fcntl.flock(handle, fcntl.LOCK_UN)
 

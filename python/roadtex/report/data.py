@@ -80,7 +80,7 @@ def mark_over_budget(ax: Any, positions: list[float]) -> None:
     error exceeds the budget (labelled :data:`OVER_BUDGET_LABEL` once, for the legend)."""
     for index, x in enumerate(sorted(positions)):
         ax.axvspan(x - 0.5, x + 0.5, facecolor="none", edgecolor="#d62728", hatch="///", lw=0, alpha=0.5, zorder=0,
-                   label=OVER_BUDGET_LABEL if index == 0 else None)
+                   label=OVER_BUDGET_LABEL if index == 0 else None, gid="over_budget")
 
 
 def energetic_mean(levels: pl.Expr) -> pl.Expr:
@@ -173,7 +173,7 @@ def verify_checksums(results_dir: Path) -> None:
     """Refuses a results folder whose tables differ from the checksums the job recorded in
     parameters.json when it wrote them (a table damaged or changed since would be drawn as data)."""
     try:
-        recorded = json.loads((results_dir / "parameters.json").read_text()).get("checksums") or {}
+        recorded = json.loads((results_dir / "parameters.json").read_text(encoding="utf-8")).get("checksums") or {}
     except (OSError, ValueError, AttributeError) as exc:
         raise DamagedResultsError(f"{results_dir}/parameters.json cannot be read: {str(exc)[:200]}") from None
     for name, digest in recorded.items():
