@@ -5,7 +5,7 @@ For each fine profile (the CAPTIF files, 0.0375 mm), 0.5 m periodic segments (th
 conditioning: plates trimmed, spikes removed, seamless segments) are
 
 - solved on their own fine readings, joined linearly and refined :data:`FINE_REFINE` times
-  (model dx 0.019 mm: converged, see README "What the sampling cannot tell");
+  (model dx 0.019 mm: converged, see docs/guide/sampling.md);
 - *averaged* to a coarser sampling ``dx``: each reading the mean of the fine road (the fine
   readings joined linearly) over a window of ``width`` centred on it (``width = dx``: interval
   averaging, what ISO 13473-1's resampling does; a smaller ``width`` at a coarser ``dx``: a laser

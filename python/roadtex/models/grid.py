@@ -27,7 +27,7 @@ axis in turn (:func:`refine_periodic_surface`; ``"linear"`` is then bilinear): e
 fine grid, exactly that row refined along the road as a line profile would be.
 
 The spread of the converged levels between these is what the data's sampling cannot tell (see
-:func:`roadtex.budget.study` and README "Model grid"): it is stated apart from the numerical error.
+:func:`roadtex.budget.study` and docs/guide/model-grid.md): it is stated apart from the numerical error.
 """
 
 from __future__ import annotations
