@@ -263,3 +263,10 @@ def test_sampling_limited_bands_are_hatched_in_the_contact_spectra(drawn, result
         assert sum("sampling-limited" in t for t in entries) == 1, entries
 
 
+
+
+def test_spectra_rows_carry_one_axis_title(drawn) -> None:
+    # side by side, each panel's band-axis title ran into its neighbour's: the row has one, the first
+    for name in ("texture_spectra", "pressure_spectra"):
+        titled = [ax for ax in drawn[name].axes if ax.get_visible() and ax.get_xlabel()]
+        assert len(titled) == 1 and "centre wavelength (mm)" in titled[0].get_xlabel(), name

@@ -78,6 +78,8 @@ def fig_texture_spectra(plt, results: Results):
         top, bottom = axes[0, column], axes[1, column]
         plot.band_levels(bands.filter(pl.col("group") == name), kind=kind, ax=(top, bottom))
         top.set_title(str(name))
+        if column:   # one axis title for the row: side by side, each panel's ran into the next one's
+            bottom.set_xlabel("")
         position = {b: b for b in bands["band"].unique().to_list()}   # roadtex.plot draws at the band number
         for ax in (top, bottom):   # the enveloped levels are the contact model's
             mark_over_budget(ax, sorted(over.get(str(name), ())))
@@ -105,6 +107,8 @@ def fig_pressure_spectra(plt, results: Results):
         hatch_limited(ax, limited.get(str(name), set()), position)
         ax.set_title(str(name))
         band_axis(ax, labels["label"].to_list(), results.options.get("band_kind", "third_octave"))
+        if ax is not axes[0, 0]:   # one axis title for the row (side by side they ran into each other)
+            ax.set_xlabel("")
     axes[0, 0].set_ylabel(f"pressure level L_p ({PRESSURE_DB})")
     legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
