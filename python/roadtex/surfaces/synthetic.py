@@ -37,6 +37,20 @@ SURFACE_DEFAULTS: dict[str, dict[str, float]] = {
 }
 
 
+
+def surface_grid(length: float, width: float, dx: float, dy: float | None, seed: object) -> tuple[float, float, int, int]:
+    """A synthetic surface's spacings (m) and point counts along and across, checked (at least 10
+    samples along; ``seed`` a non-negative whole number)."""
+    dx_f = positive(dx, "dx")
+    dy_f = dx_f if dy is None else positive(dy, "dy")
+    nx = int(round(positive(length, "length") / dx_f))
+    ny = max(1, int(round(positive(width, "width") / dy_f)))
+    if nx < 10:
+        raise InvalidInputError(f"length {length:g} m is fewer than 10 samples of dx {dx_f:g} m")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
+    return dx_f, dy_f, nx, ny
+
 def synthetic_surface(kind: str, length: float, width: float, dx: float, dy: float | None = None, *,
                       seed: int = 0, **options: float | bool) -> Surface:
     """A reproducible synthetic road surface of a given pavement type.
@@ -58,14 +72,7 @@ def synthetic_surface(kind: str, length: float, width: float, dx: float, dy: flo
     """
     if kind not in _KINDS:
         raise InvalidInputError(f"unknown pavement kind {kind!r}; known kinds: {', '.join(_KINDS)}")
-    dx_f = positive(dx, "dx")
-    dy_f = dx_f if dy is None else positive(dy, "dy")
-    nx = int(round(positive(length, "length") / dx_f))
-    ny = max(1, int(round(positive(width, "width") / dy_f)))
-    if nx < 10:
-        raise InvalidInputError(f"length {length:g} m is fewer than 10 samples of dx {dx_f:g} m")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
+    dx_f, dy_f, nx, ny = surface_grid(length, width, dx, dy, seed)
     p: dict[str, float | bool] = {**_DEFAULTS[kind], **SURFACE_DEFAULTS[kind]}
     unknown = set(options) - set(p)
     if unknown:
@@ -224,14 +231,7 @@ def sett_surface(length: float, width: float, dx: float = 0.01, dy: float | None
         A NaN-free :class:`Surface` (heights m, mean zero) whose metadata names the settings and the
         mean sett pitch along the road (m).
     """
-    dx_f = positive(dx, "dx")
-    dy_f = dx_f if dy is None else positive(dy, "dy")
-    nx = int(round(positive(length, "length") / dx_f))
-    ny = max(1, int(round(positive(width, "width") / dy_f)))
-    if nx < 10:
-        raise InvalidInputError(f"length {length:g} m is fewer than 10 samples of dx {dx_f:g} m")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative whole number, got {seed!r}")
+    dx_f, dy_f, nx, ny = surface_grid(length, width, dx, dy, seed)
     unknown = set(options) - set(SETT_DEFAULTS)
     if unknown:
         raise InvalidInputError(f"unknown option(s) {sorted(unknown)} for sett_surface; known: {sorted(SETT_DEFAULTS)}")
