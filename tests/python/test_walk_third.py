@@ -465,3 +465,26 @@ def test_a_sidecar_is_not_named_as_a_file_left_out(tmp_path: Path) -> None:
     notes = unlisted_files(tmp_path)
     assert not any(n.startswith("surface.npy.json") for n in notes)
     assert any(n.startswith("notes.json") for n in notes)   # a .json of no profile is still named
+
+
+def test_ctrl_c_counts_the_runs_in_flight_that_finish(tmp_path: Path, monkeypatch) -> None:
+    # found on a fresh clone: Ctrl-C while a finished run was not yet collected said "interrupted
+    # after 0 of 6 runs" though its results were complete on disk (the runs in flight finish)
+    import pytest
+
+    import roadtex.archive.job as job
+    from roadtex.errors import JobInterrupted
+
+    files = survey(tmp_path / "survey", runs=3)
+    pl.DataFrame({"path": [str(p) for p in files]}).write_csv(tmp_path / "manifest.csv")
+
+    def interrupted_engine(work, runs, sizes, options, out, threads, flags):
+        yield work(runs[0], options, out, threads=threads, **flags), sizes[0]
+        work(runs[1], options, out, threads=threads, **flags)   # in flight: finishes, never collected
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(job, "process_local", interrupted_engine)
+    options = ProcessingOptions(error_budget_db=None, dx=DX, segment_length=0.128)
+    with pytest.raises(JobInterrupted) as caught:
+        process(tmp_path / "manifest.csv", tmp_path / "out", options, quiet=True)
+    assert (caught.value.done, caught.value.runs) == (2, 3)

@@ -256,6 +256,7 @@ def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *
     sizes = [file_size(run["path"]) for run in runs]
     started = time.perf_counter()
     statuses: dict[str, dict[str, Any]] = {}
+    resolved: ProcessingOptions | None = None   # until the plan is made
     try:
         # the plan (error budget pilot, sampling interval) is for line runs; surface runs use its tol
         # and their own spacings
@@ -285,7 +286,7 @@ def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *
         # the runs in flight have finished writing by now (the engines wait for them): what is on
         # disk is complete, and a rerun resumes from it
         remove_stale_temporaries(out)
-        raise JobInterrupted(len(statuses), len(runs)) from None
+        raise JobInterrupted(runs_done(out, runs, resolved, statuses), len(runs)) from None
     warn_surfaces_over_budget(tables["runs"], [run["run_id"] for run in runs if is_surface_run(run)],
                               options.error_budget_db)
     warn_plausibility_notes([statuses[run["run_id"]] for run in runs if run["run_id"] in statuses])
@@ -434,6 +435,18 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], options: Pr
     if options.keep_profiles:
         written["profiles"] = out / "runs"
     return written
+
+
+def runs_done(out: Path, runs: list[dict[str, Any]], resolved: ProcessingOptions | None,
+              statuses: dict[str, dict[str, Any]]) -> int:
+    """The runs whose results are complete on disk for this job after a Ctrl-C: those whose status
+    file holds the job's options (the runs in flight at the Ctrl-C finish after the job stopped
+    counting them: they count too); before the plan, those the job had counted."""
+    if resolved is None:
+        return len(statuses)
+    fingerprint = resolved.fingerprint()
+    return sum(1 for run in runs
+               if (read_status(out / "runs" / run["run_id"]) or {}).get("options_fingerprint") == fingerprint)
 
 
 def run_estimates(manifest: pl.DataFrame, run_files: list[Path], plan: JobPlan | None) -> tuple[pl.DataFrame, pl.DataFrame]:
