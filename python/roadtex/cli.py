@@ -118,9 +118,6 @@ def process_command(args: argparse.Namespace) -> int:
     width = max((len(name) for name in summary.tables), default=0)
     for name, path in summary.tables.items():
         print(f"  {name:<{width}} {path}")
-    upsampled = upsampled_runs(summary.tables.get("runs"))
-    if upsampled:
-        print(f"roadtex process: warning: {upsampled}", file=sys.stderr)
     if summary.failed_on_record:
         print(f"roadtex process: {summary.failed_on_record} run(s) failed, by cause (all of them in "
               f"{summary.tables.get('errors')}):", file=sys.stderr)
@@ -152,34 +149,6 @@ def failure_causes(errors_table: Path | None, shown: int = 10) -> list[str]:
     if len(ordered) > shown:
         lines.append(f"... and {len(ordered) - shown} more cause(s)")
     return lines
-
-
-#: A file sampled this many times more coarsely than the job's interval is reported as upsampled.
-UPSAMPLED_RATIO = 1.5
-
-
-def upsampled_runs(runs_table: Path | None) -> str | None:
-    """What to tell the user when some runs' files were sampled more coarsely than the job's one
-    interval (runs.parquet ``file_dx`` against ``dx_used``), or None. Such a run is upsampled,
-    interpolated linearly between its readings: its contact measures and short-wavelength levels
-    are those of straight chords between the readings, not comparable with the finer runs of the
-    same job."""
-    import polars as pl
-
-    if runs_table is None or not Path(runs_table).is_file():
-        return None
-    runs = pl.read_parquet(runs_table, columns=["run_id", "file_dx", "dx_used"])
-    coarse = runs.filter(pl.col("file_dx") > UPSAMPLED_RATIO * pl.col("dx_used"))
-    if coarse.height == 0:
-        return None
-    examples = ", ".join(f"{r['run_id']} ({r['file_dx'] * 1e3:.3g} mm)" for r in coarse.head(3).iter_rows(named=True))
-    more = f" and {coarse.height - 3} more" if coarse.height > 3 else ""
-    return (f"{coarse.height} run(s) were sampled more coarsely than the job's interval of "
-            f"{coarse['dx_used'][0] * 1e3:.3g} mm and were upsampled to it: {examples}{more}. Their contact "
-            "measures and short-wavelength levels describe straight chords between the file's readings, not the "
-            "road, and differ from "
-            "a finer file of the same road; process runs of different sampling in separate jobs, or pass "
-            "--dx at the coarsest interval (runs.parquet: file_dx, dx_used).")
 
 
 def error_budget(text: str) -> float | None:
@@ -302,8 +271,9 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--overlap", type=float, default=defaults.segment_overlap, metavar="M",
                         help="overlap of consecutive segments in m (default 0)")
     parser.add_argument("--dx", type=float, default=None, metavar="M",
-                        help="solve every run at this sampling interval in m (default: one interval for the "
-                             "whole job, the finest among the runs; above 5 mm refused unless --allow-implausible)")
+                        help="average runs sampled more finely down to this interval in m before solving (default: "
+                             "each run on its own readings, or coarser where its pilot chooses; a run sampled more "
+                             "coarsely keeps its own; above 5 mm refused unless --allow-implausible)")
     parser.add_argument("--spike-alpha", type=float, default=defaults.spike_alpha,
                         help="spike criterion before contact and spectra: a reading alpha x 0.5 mm from the median "
                              "within 0.5 mm is a spike (default 3, ISO 13473-1's alpha; 0 turns it off)")

@@ -31,21 +31,32 @@ Combined tables in ``OUT`` (rewritten atomically at the end of every job, in man
 ``surface_examples.parquet`` — each surface run's middle tile at the middle modulus: heights, enveloped
 surface, pressure map, :data:`SURFACE_EXAMPLE_SCHEMA` (for the report).
 ``edge_effect.parquet`` — the seed's figure 3.1 at the job's load, :data:`EDGE_EFFECT_SCHEMA`.
-``parameters.json`` — the options, their fingerprint, and the software versions.
+``parameters.json`` — the options, their fingerprint, the plan and the software versions.
+``plan/`` — the pilots kept for the next job (:mod:`~roadtex.archive.kept_pilots`).
 Profiles (``keep_profiles=True``): ``OUT/runs/<run_id>/profiles.parquet`` per run, schema
 :data:`PROFILE_SCHEMA`; :func:`read_profiles` reads them back by run and position.
 
-Modules: :mod:`~roadtex.archive.schemas` (tables), :mod:`~roadtex.archive.options`,
-:mod:`~roadtex.archive.manifest`, :mod:`~roadtex.archive.compute` (one run),
+Modules, in the order data flows: :mod:`~roadtex.archive.options` (what the user asks),
+:mod:`~roadtex.archive.manifest`, :mod:`~roadtex.archive.reading` (a row's reader and group),
+:mod:`~roadtex.archive.plan` (what the job decided: :class:`JobPlan`, one :class:`RunPlan` per run),
+:mod:`~roadtex.archive.planning` (the pilots that make it) and :mod:`~roadtex.archive.kept_pilots` (the
+plan kept in ``OUT/plan/`` and reused), :mod:`~roadtex.archive.compute` (one line run),
 :mod:`~roadtex.archive.surface_run` (one surface run: areal and line models),
-:mod:`~roadtex.archive.store` (atomic files, status), :mod:`~roadtex.archive.engines` (local, Dask,
-progress) and :mod:`~roadtex.archive.job` (the job, combined tables).
+:mod:`~roadtex.archive.tables` (segment and band rows for both), :mod:`~roadtex.archive.worker` (one run:
+skip or compute, and its files), :mod:`~roadtex.archive.store` (atomic files, status),
+:mod:`~roadtex.archive.engines` (local, Dask, progress), :mod:`~roadtex.archive.combine` (the combined
+tables), :mod:`~roadtex.archive.comparison_tables` (the report's physics tables),
+:mod:`~roadtex.archive.outputs` (reading outputs back) and :mod:`~roadtex.archive.job` (the job).
 """
 
+from roadtex.archive.combine import combine, software_versions
 from roadtex.archive.compute import compute_run
-from roadtex.archive.job import ProcessSummary, combine, process, process_run, read_profiles, software_versions
+from roadtex.archive.job import ProcessSummary, process
 from roadtex.archive.manifest import build_manifest, read_manifest
 from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.outputs import read_profiles
+from roadtex.archive.plan import GroupPilot, JobPlan, RunPlan
+from roadtex.archive.reading import is_surface_run
 from roadtex.archive.schemas import (
                                      BAND_SCHEMA,
                                      EDGE_EFFECT_SCHEMA,
@@ -60,11 +71,12 @@ from roadtex.archive.schemas import (
                                      SURFACE_EXAMPLE_SCHEMA,
 )
 from roadtex.archive.store import file_sha256, remove_outputs
-from roadtex.archive.surface_run import compute_surface_run, is_surface_run
+from roadtex.archive.surface_run import compute_surface_run
+from roadtex.archive.worker import process_run
 from roadtex.errors import ArchiveWriteError, ManifestError
 
 __all__ = ["compute_run", "ProcessSummary", "combine", "process", "process_run", "read_profiles", "software_versions",
            "build_manifest", "read_manifest", "ProcessingOptions", "BAND_SCHEMA", "EDGE_EFFECT_SCHEMA", "ERROR_SCHEMA",
            "EXAMPLE_SCHEMA", "MANIFEST_COLUMNS", "METADATA_COLUMNS", "NOISE_PREFIX", "PROFILE_SCHEMA", "RUN_SCHEMA",
            "SEGMENT_SCHEMA", "SURFACE_EXAMPLE_SCHEMA", "compute_surface_run", "is_surface_run",
-           "file_sha256", "remove_outputs", "ArchiveWriteError", "ManifestError"]
+           "file_sha256", "remove_outputs", "ArchiveWriteError", "ManifestError", "JobPlan", "RunPlan", "GroupPilot"]

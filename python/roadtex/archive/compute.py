@@ -8,18 +8,12 @@ from typing import Any, Callable
 import numpy as np
 import polars as pl
 
-from roadtex.archive.options import ProcessingOptions
-from roadtex.archive.plan import reader_options, run_refine
-from roadtex.archive.schemas import (
-    EXAMPLE_SCHEMA,
-    METADATA_COLUMNS,
-    PROFILE_SCHEMA,
-    RUN_BAND_SCHEMA,
-    RUN_RUN_SCHEMA,
-    SAMPLING_BAND_COLUMNS,
-    SEGMENT_SCHEMA,
-)
+from roadtex.archive.options import DEFAULT_TOL, MAX_SEGMENT_MODEL_POINTS, ProcessingOptions
+from roadtex.archive.plan import JobPlan
+from roadtex.archive.reading import reader_options
+from roadtex.archive.schemas import EXAMPLE_SCHEMA, PROFILE_SCHEMA, RUN_BAND_SCHEMA, RUN_RUN_SCHEMA
 from roadtex.archive.sections import section_band_table, section_table
+from roadtex.archive.tables import band_frame, defined_levels, model_levels, segment_frame
 from roadtex.budget.sampling import STATEMENT_SCHEMA, run_statement
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
@@ -40,8 +34,10 @@ from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE, band_table
 from roadtex.spectra.levels import band_levels
 
-#: Segments solved per call of the Rust core; bounds memory on long runs.
-CHUNK_SEGMENTS = 2048
+#: Model grid points solved per call of the Rust core (every segment of a chunk, one modulus): bounds
+#: memory on long runs whatever the model grid's k (the envelopes and pressures of every modulus
+#: are kept for the chunk: 4 moduli x 2 arrays x 8 bytes x 2^22 points = 256 MB).
+CHUNK_MODEL_POINTS = 1 << 22
 
 
 def run_stage(stage: str, action: Callable[[], Any]) -> Any:
@@ -65,35 +61,20 @@ def run_stage(stage: str, action: Callable[[], Any]) -> Any:
         raise RunFailure(stage, exc) from exc
 
 
-def within_file_sampling(bands: pl.DataFrame, file_dx: float, dx: float, length: float,
-                         options: ProcessingOptions) -> pl.DataFrame:
-    """``bands`` (reported at the job's ``dx``, m) with the bands a file sampled more coarsely
-    (``file_dx``, m) cannot resolve marked not reported, and why: interpolation to the job's
-    interval adds points, not wavelengths. The rows and their levels are kept."""
-    if file_dx <= dx * (1.0 + 1e-9):
-        return bands
-    at_file = band_table(file_dx, length, options.band_kind)
-    lost = bands["reported"] & ~at_file["reported"]
-    if not lost.any():
-        return bands
-    why = pl.Series([f"the file was sampled at {file_dx * 1e3:.4g} mm and interpolated to {dx * 1e3:.4g} mm: {reason}"
-                     for reason in at_file["reason"].fill_null("").to_list()], dtype=pl.String)
-    return bands.with_columns(pl.when(lost).then(False).otherwise(pl.col("reported")).alias("reported"),
-                              pl.when(lost).then(why).otherwise(pl.col("reason")).alias("reason"))
+def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
+                threads: int | None = None) -> dict[str, Any]:
+    """Reads, cleans, conditions, segments, solves and analyses one line run as ``plan`` says; returns
+    its tables (nothing written), its plan entry (``plan_entry``, a
+    :class:`~roadtex.archive.plan.RunPlan`) and its notes on plausibility (strings or None, see
+    :func:`plausibility_notes`).
 
-
-def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
-                threads: int | None = None) -> dict[str, pl.DataFrame | str | None]:
-    """Reads, cleans, conditions, segments, solves and analyses one run; returns its tables (nothing
-    written) and its notes on plausibility (strings or None, see :func:`plausibility_notes`).
-
-    The contact model solves each segment on a grid finer than ``dx`` (its pilot group's model
-    grid, :func:`~roadtex.archive.plan.run_refine`)
-    (the readings joined by ``options.interpolant``, :mod:`roadtex.models.grid`); its enveloped
-    and pressure levels are taken on that grid in the data's bands; texture levels are the data's.
-    ``options.dx``, ``options.tol`` and ``options.refine`` must be set (the job's plan fills them in:
-    :meth:`~roadtex.archive.plan.JobPlan.resolved`); the plan's error estimates are added when the
-    job combines the runs' tables (:func:`roadtex.archive.job.combine`).
+    The run is solved on its own readings (at its own interval, or coarser where its group's pilot
+    averaged them down: :meth:`~roadtex.archive.plan.JobPlan.line_entry`), on a model grid k times
+    finer (the readings joined by the entry's interpolant, :mod:`roadtex.models.grid`); its
+    enveloped and pressure levels are taken on that grid in the data's bands; texture levels are
+    the data's. ``plan`` may be bare :class:`ProcessingOptions` (:meth:`JobPlan.given`: no pilot).
+    The plan's error estimates are added when the job combines the runs' tables
+    (:func:`roadtex.archive.combine.combine`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run
@@ -101,16 +82,19 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
             file whose heights cannot be a road texture in the unit read (a unit mistake), unless
             ``options.allow_implausible`` (:func:`plausibility_notes`).
     """
-    if options.dx is None or options.tol is None or options.refine is None:
-        raise InvalidInputError("compute_run needs options.dx, options.tol and options.refine (the job's plan sets them)")
+    plan = plan if isinstance(plan, JobPlan) else JobPlan.given(plan)
+    options = plan.options
     name = Path(run["path"]).name
     reading = reader_options(run, options)
     # judged here, and refused: no warning from the reader that it computes as given
     with judged_once():
         raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reading))
     notes = plausibility_notes(raw.heights, raw.dx, name, raw.metadata, options, given_dx=reading.get("dx"))
+    entry = plan.line_entry(run, raw.dx)
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
-    conditioned = run_stage("condition", lambda: cleaned.finished(dx=options.dx))
+    # its own readings (resampling at its own interval is the identity), or averaged down
+    coarser = entry.data_dx if entry.data_dx is not None and entry.data_dx > raw.dx else None
+    conditioned = run_stage("condition", lambda: cleaned.finished(dx=coarser))
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
     if conditioned.length < options.segment_length:
         trimmed = f", {cleaning.trimmed_length:.3g} m of reference plates trimmed" if cleaning.trimmed_length > 0 else ""
@@ -120,10 +104,15 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
             f"of at most {conditioned.length:.4g} m, in a job of its own if the other runs keep theirs"))
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
+    refine, tol = int(entry.refine or 1), float(entry.tol or DEFAULT_TOL)
+    if n_points * refine > MAX_SEGMENT_MODEL_POINTS:
+        raise RunFailure("segment", InvalidInputError(
+            f"{name}: a model grid {refine} times finer than its {n_points} readings a segment would have "
+            f"{n_points * refine:,} points a segment, above {MAX_SEGMENT_MODEL_POINTS:,}: use a smaller --refine "
+            "or shorter segments (--segment-length)"))
     moduli = np.asarray(options.youngs_moduli)
     n_moduli = moduli.size
     dx = segments.dx
-    refine = run_refine(run, raw.dx, dx, options)
     model_dx = dx / refine
     speed = run.get("speed_kmh")
     speed = options.speed_kmh if speed is None or not np.isfinite(speed) else speed
@@ -131,7 +120,7 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
     baselines = depth.segments
     mpd_per_segment = segment_mpd(baselines, segments.starts, segments.length, max(dx, 5e-4))
 
-    segment_rows: dict[str, list[Any]] = {name: [] for name in SEGMENT_SCHEMA}
+    segment_frames: list[pl.DataFrame] = []
     band_frames: list[pl.DataFrame] = []
     profile_envelopes = np.empty((n_moduli, n_segments, n_points)) if options.keep_profiles else None
     profile_pressures = np.empty((n_moduli, n_segments, n_points)) if options.keep_profiles else None
@@ -140,97 +129,63 @@ def compute_run(run: dict[str, Any], options: ProcessingOptions, *,
     # enveloped - original then come from the envelopment alone, not from a change of method.
     # The segments are seamless (Profile.segments removes the line through each one's ends), so
     # neither sees a step at the wrap that the texture does not have.
-    method = options.band_method
-    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=options.band_kind, periodic=True, method=method))
+    kind, method = options.band_kind, options.band_method
+    texture = run_stage("spectra", lambda: band_levels(segments.heights, dx, kind=kind, periodic=True, method=method))
     if not texture.bands["reported"].any():
         raise RunFailure("spectra", InvalidInputError(
-            f"no {options.band_kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
+            f"no {kind.replace('_', '-')} band is allowed by the sampling ({dx:.3g} m) and the "
             f"segment length ({segments.length:.3g} m); use longer segments"))
     # Every candidate band is kept, with its reported flag and the reason when it is not reported.
-    bands = within_file_sampling(texture.bands, raw.dx, dx, segments.length, options)
-    band_count = bands.height
+    bands = texture.bands
     frequency = (run_stage("spectra", lambda: time_frequency(bands["centre_wavelength"].to_numpy(), speed))
-                 if speed is not None else np.full(band_count, np.nan))
+                 if speed is not None else np.full(bands.height, np.nan))
 
     # The report draws its profile figures from this segment's own solves (it never re-solves).
     example_segment = n_segments // 2
     example = None
-    for first in range(0, n_segments, CHUNK_SEGMENTS):
-        chunk = slice(first, min(first + CHUNK_SEGMENTS, n_segments))
+    # segments solved per call of the Rust core: memory bounded by model points, whatever k
+    chunk_segments = max(1, CHUNK_MODEL_POINTS // (n_points * refine))
+    for first in range(0, n_segments, chunk_segments):
+        chunk = slice(first, min(first + chunk_segments, n_segments))
         heights = segments.heights[chunk]
-        model = refine_periodic(heights, refine, options.interpolant)   # heights itself when refine is 1
+        model = refine_periodic(heights, refine, entry.interpolant)   # heights itself when refine is 1
         batch = run_stage("solve", lambda: contact_many(
-            model, model_dx, moduli, options.mean_pressure, poisson=options.poisson, tol=options.tol,
+            model, model_dx, moduli, options.mean_pressure, poisson=options.poisson, tol=tol,
             max_iterations=options.max_iterations, threads=threads, warm_start=True,
             raise_on_nonconvergence=False))
         count = heights.shape[0]
         model_points = model.shape[1]
         envelopes = batch.envelope.reshape(count * n_moduli, model_points)
         pressures = batch.pressure.reshape(count * n_moduli, model_points)
-        enveloped = run_stage("spectra", lambda: model_levels(envelopes, model_dx, bands, options))
-        pressure = run_stage("spectra", lambda: model_levels(pressures, model_dx, bands, options, REFERENCE_PRESSURE))
+        enveloped = run_stage("spectra", lambda: model_levels(envelopes, model_dx, bands, kind=kind, method=method))
+        pressure = run_stage("spectra", lambda: model_levels(pressures, model_dx, bands, kind=kind, method=method,
+                                                             reference=REFERENCE_PRESSURE))
         if options.keep_profiles:   # at the data's readings, as the profile is
             profile_envelopes[:, chunk] = np.moveaxis(coarse_points(batch.envelope, refine), 1, 0)
             profile_pressures[:, chunk] = np.moveaxis(coarse_points(batch.pressure, refine), 1, 0)
-
         if first <= example_segment < first + count:
             example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first,
                                     model[example_segment - first], model_dx)
-        measures = batch.measures()
-        index = np.arange(first, first + count)
-        seg_index = np.repeat(index, n_moduli)
+        seg_index = np.repeat(np.arange(first, first + count), n_moduli)
         mod_index = np.tile(np.arange(n_moduli), count)
-        columns = {
-            "run_id": [run["run_id"]] * seg_index.size,
-            "model": ["line"] * seg_index.size,
-            "segment": seg_index,
-            "line": [None] * seg_index.size,
-            "youngs_modulus": moduli[mod_index],
-            "start": segments.starts[seg_index],
-            "end": segments.starts[seg_index] + segments.length,
-            **{name: [run.get(name)] * seg_index.size for name in METADATA_COLUMNS},
-            "mpd": mpd_per_segment[seg_index],
-            "rms_height": heights.std(axis=1)[seg_index - first],
-            **{name: values.ravel() for name, values in measures.items()},
-            "residual": batch.residual.ravel(),
-            "iterations": batch.iterations.ravel(),
-            "converged": batch.converged.ravel(),
-        }
-        for name, values in columns.items():
-            segment_rows[name].extend(np.asarray(values).tolist() if not isinstance(values, list) else values)
-
-        rows = seg_index.size
-        band_frames.append(pl.DataFrame({
-            "segment": np.repeat(seg_index, band_count),
-            "youngs_modulus": np.repeat(moduli[mod_index], band_count),
-            "band": np.tile(bands["band"].to_numpy(), rows),
-            "label": np.tile(bands["label"].to_numpy(), rows),
-            "centre_wavelength": np.tile(bands["centre_wavelength"].to_numpy(), rows),
-            "frequency": np.tile(frequency, rows),
-            "reported": np.tile(bands["reported"].to_numpy(), rows),
-            "reason": np.tile(bands["reason"].to_numpy(), rows),
-            "texture_level": texture.levels[seg_index].ravel(),
-            "enveloped_level": enveloped.ravel(),
-            "pressure_level": pressure.ravel(),
-        }).with_columns(pl.lit(run["run_id"], dtype=pl.String).alias("run_id"), pl.lit("line").alias("model"),
-                        pl.lit(None, dtype=pl.Int64).alias("line"),
-                        *[pl.lit(None, dtype=pl.Float64).alias(c) for c in SAMPLING_BAND_COLUMNS]).select(
-            [pl.col(name).cast(dtype) for name, dtype in RUN_BAND_SCHEMA.items()]))
+        segment_frames.append(segment_frame(
+            run, "line", seg_index, None, moduli[mod_index], segments.starts[seg_index], segments.length,
+            mpd_per_segment[seg_index], heights.std(axis=1)[seg_index - first],
+            {key: values.ravel() for key, values in batch.measures().items()}, batch.residual.ravel(),
+            batch.iterations.ravel(), batch.converged.ravel()))
+        band_frames.append(band_frame(run["run_id"], "line", seg_index, None, moduli[mod_index], bands, frequency,
+                                      texture.levels[seg_index], enveloped, pressure))
 
     statement, sampling_dx, resolved_to = run_stage("spectra", lambda: run_statement(
         raw.dx, dx, conditioned.length, options.segment_length, n_segments, moduli, options.mean_pressure,
         options.band_kind, options.band_method, dict(bands.select("band", "centre_wavelength").iter_rows()),
         correct=options.sampling_correction))
-    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
-    tables = {
+    tables: dict[str, Any] = {
+        "plan_entry": entry,
         "example": example,
-        # NaN (no valid baseline, a band without DFT line) and -inf (a band without power) are
-        # undefined numbers: null in the tables, never a number that sorts or averages.
-        "segments": pl.DataFrame(segment_rows, schema=SEGMENT_SCHEMA).with_columns(pl.col("mpd").fill_nan(None)),
-        "bands": with_sampling(pl.concat(band_frames), statement).with_columns(
-            pl.col("frequency").fill_nan(None),
-            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, options.tol, refine).with_columns(
+        "segments": pl.concat(segment_frames),
+        "bands": defined_levels(with_sampling(pl.concat(band_frames), statement)),
+        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, tol, refine).with_columns(
             pl.lit(sampling_dx, dtype=pl.Float64).alias("sampling_dx"),
             pl.lit(resolved_to, dtype=pl.Float64).alias("contact_resolved_to")),
     }
@@ -302,19 +257,6 @@ def with_sampling(bands: pl.DataFrame, statement: pl.DataFrame) -> pl.DataFrame:
     return joined.with_columns(
         (pl.col("enveloped_level") - pl.col("sampling_correction_db").fill_null(0.0)).alias("enveloped_level")
     ).select(list(RUN_BAND_SCHEMA))
-
-
-def model_levels(values: np.ndarray, model_dx: float, bands: pl.DataFrame, options: ProcessingOptions,
-                 reference: float | None = None) -> np.ndarray:
-    """Band levels (rows, bands) of the model's periodic output (rows of enveloped heights in m, or
-    pressures in Pa, sampled every ``model_dx`` m) in the data's bands (``bands``, in its order):
-    the finer model grid resolves bands the data's do not, which are not the run's."""
-    extra = {} if reference is None else {"reference": reference}
-    levels = band_levels(values, model_dx, kind=options.band_kind, periodic=True, method=options.band_method, **extra)
-    if levels.bands.height == bands.height and levels.bands["band"].equals(bands["band"]):
-        return levels.levels   # the data's grid: the same bands
-    numbers = levels.bands["band"].to_list()
-    return levels.levels[:, [numbers.index(band) for band in bands["band"].to_list()]]
 
 
 def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[Profile, CleaningSummary]:

@@ -9,12 +9,12 @@ import uuid
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.plan import JobPlan
 from roadtex.errors import MissingDependencyError
 
 log = logging.getLogger("roadtex.archive")
 
-#: What an engine runs for each run: :func:`roadtex.archive.job.process_run` (passed in, so that
+#: What an engine runs for each run: :func:`roadtex.archive.worker.process_run` (passed in, so that
 #: the engines stay below the job that uses them).
 RunWorker = Callable[..., dict[str, Any]]
 
@@ -25,7 +25,7 @@ RunWorker = Callable[..., dict[str, Any]]
 LOCAL_RUNS_IN_FLIGHT = 2
 
 
-def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
+def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], plan: JobPlan, out: Path,
                    threads: int | None, flags: dict[str, Any]) -> Iterable[tuple[dict[str, Any], int]]:
     """Runs in manifest order, a bounded number at a time; yields (status, size) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
@@ -37,7 +37,7 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
             while pending or in_flight:
                 while pending and len(in_flight) < LOCAL_RUNS_IN_FLIGHT:
                     run, size = pending.pop()
-                    in_flight[pool.submit(work, run, options, out, threads=threads, **flags)] = size
+                    in_flight[pool.submit(work, run, plan, out, threads=threads, **flags)] = size
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 for future in done:
                     size = in_flight.pop(future)
@@ -47,7 +47,7 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
                 future.cancel()
 
 
-def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], options: ProcessingOptions, out: Path,
+def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], plan: JobPlan, out: Path,
                   scheduler: str | None, workers: int, threads: int | None,
                   flags: dict[str, Any]) -> Iterable[tuple[dict[str, Any], int]]:
     try:
@@ -65,7 +65,8 @@ def process_dask(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], 
         by_key = {}
         futures = []
         for run, size in zip(runs, sizes):
-            future = client.submit(work, run, options, str(out), threads=threads, **flags,
+            # the plan travels to the workers with each run: what the job decided, not the options' hidden fields
+            future = client.submit(work, run, plan, str(out), threads=threads, **flags,
                                    key=f"roadtex-run-{run['run_id']}-{uuid.uuid4().hex[:8]}", pure=False)
             by_key[future.key] = size
             futures.append(future)

@@ -34,6 +34,21 @@ MIN_JOB_DX = 1e-6
 MIN_SEGMENT_LENGTH = 0.01
 #: Solver tolerance without an error budget (relative residual).
 DEFAULT_TOL = 1e-6
+#: The largest model grid refinement a user may force (``refine``): the pilot's own ladder ends at 32,
+#: and a k of thousands would allocate gigabytes per segment before any solve (a typing slip).
+MAX_REFINE = 64
+#: The largest model grid of one line segment (points): 16 MB per array, a few seconds per solve.
+#: Beyond it a run is refused naming its segment length, interval and k (the job checks it per run:
+#: it depends on the file's interval).
+MAX_SEGMENT_MODEL_POINTS = 1 << 21
+#: The shortest reporting section (m): one ISO 13473-1:2019 (clause 3.6) MPD baseline of 100 mm.
+MIN_SECTION_LENGTH = 0.1
+#: The fastest vehicle speed accepted for band frequencies (km/h): faster than any road vehicle whose
+#: tyre/road noise is measured (CPX and CPB run at 50 to 110 km/h).
+MAX_SPEED_KMH = 400.0
+#: The largest share of a segment that the next one may overlap: beyond it the segments step by less
+#: than a quarter of their length and the job would solve each stretch of road four times or more.
+MAX_OVERLAP_SHARE = 0.75
 
 
 def check_reader_defaults(defaults: dict[str, object]) -> None:
@@ -61,10 +76,12 @@ class ProcessingOptions:
         poisson: nu of the rubber.
         segment_length: length of the segments handed to the periodic contact model (m).
         segment_overlap: overlap between consecutive segments (m).
-        dx: the sampling interval every run is solved at (m). None (the default): one interval
-            for the whole job, chosen before any run is processed (see
-            :func:`roadtex.archive.plan.plan_job`), so that the same road sampled differently by
-            two devices gives comparable results.
+        dx: the interval (m) runs sampled more finely are averaged down to (ISO 13473-1's interval
+            averaging) before they are solved. None (the default): each run is solved on its own
+            readings at its own interval, or at a coarser one where its group's error budget pilot
+            finds that cheaper within the budget. A run sampled more coarsely than ``dx`` keeps its
+            own readings: no run is resampled onto a grid finer than its own (the model grid,
+            ``refine``, is where the solve is finer than the data).
         spike_alpha: spike criterion of the cleaning before the contact model and the spectra: a
             reading at least alpha x 0.5 mm from the median of the readings within 0.5 mm is a
             spike (ISO 13473-1's alpha, on its 0.5 mm grid, whatever the file's sampling; see
@@ -74,27 +91,18 @@ class ProcessingOptions:
             coarse chip seals; None skips).
         error_budget_db: the largest numerical error (dB) allowed on any reported level in the
             tyre/road noise bands (see :mod:`roadtex.budget`); a pilot per group of runs picks the
-            cheapest ``dx`` and ``tol`` within it (see :mod:`roadtex.archive.plan`), and every band
-            row states its estimated error. None switches it off. Default 0.2 dB.
+            cheapest interval, model grid and ``tol`` within it (the job's plan,
+            :class:`roadtex.archive.plan.JobPlan`), and every band row states its estimated error.
+            None switches it off. Default 0.2 dB.
         tol: solver tolerance (relative residual, see :func:`roadtex.contact`). None (the
             default): chosen by the error budget, or :data:`DEFAULT_TOL` without one. 1e-6 of a
             few millimetres of texture is a few nanometres.
             Each segment's moduli are solved in the order given, each from the previous one's
             solution (``contact_many(warm_start=True)``): every result meets ``tol``.
-        tol_from_budget: set by the job's plan (:meth:`~roadtex.archive.plan.JobPlan.resolved`)
-            when ``tol`` was chosen by the error budget rather than given: surface runs then
-            choose their own from their areal pilot (:mod:`roadtex.budget.areal`).
         refine: the model grid's refinement k: the contact model is solved on a grid k times finer
             than the data's (every ``dx / k``), the readings joined by ``interpolant``
             (:mod:`roadtex.models.grid`); texture levels stay those of the data. None (the
             default): chosen by the error budget (1 without one). 1: the data's own grid.
-        refine_from_budget: set by the job's plan when ``refine`` was chosen by the error budget
-            rather than given: surface runs then choose their own from their areal pilot.
-        group_model_dx: set by the job's plan: (group, file spacing in m to two significant
-            digits, model grid interval in m) of each error-budget pilot group; a line run of such
-            a group is solved on its own group's model grid (``ceil(dx / model_dx)`` times finer
-            than ``dx``): converged levels do not depend on the grid, so runs need not share it.
-            Runs of no pilot group get ``refine``, the finest any group needs.
         interpolant: the continuous road between readings, ``"linear"`` (default), ``"pchip"`` or
             ``"bandlimited"`` (:data:`roadtex.models.grid.INTERPOLANTS`).
         sampling_correction: subtract from the enveloped levels the bias the run's sampling causes
@@ -137,11 +145,8 @@ class ProcessingOptions:
     mpd_spike_alpha: float | None = 3.0
     error_budget_db: float | None = DEFAULT_ERROR_BUDGET_DB
     tol: float | None = None
-    tol_from_budget: bool = False
     refine: int | None = None
-    refine_from_budget: bool = False
     interpolant: str = "linear"
-    group_model_dx: tuple[tuple[str, float, float], ...] = ()
     sampling_correction: bool = False
     max_iterations: int = 2000
     band_kind: str = "third_octave"
@@ -157,6 +162,12 @@ class ProcessingOptions:
         moduli = tuple(positive(e, "youngs_moduli", "Pa") for e in np.atleast_1d(self.youngs_moduli))
         if not moduli:
             raise InvalidInputError("youngs_moduli must name at least one modulus (Pa)")
+        repeated = sorted({e for e in moduli if moduli.count(e) > 1})
+        if repeated:
+            # each modulus is a set of rows; a repeated one would duplicate them (and the sampling
+            # statement joined per modulus), which no average over the rows should count twice
+            raise InvalidInputError(f"youngs_moduli lists {', '.join(f'{e:g} Pa' for e in repeated)} more than once: "
+                                    "give each modulus once")
         object.__setattr__(self, "youngs_moduli", moduli)
         object.__setattr__(self, "mean_pressure", positive(self.mean_pressure, "mean_pressure", "Pa"))
         object.__setattr__(self, "segment_length", positive(self.segment_length, "segment_length", "m"))
@@ -181,15 +192,21 @@ class ProcessingOptions:
                                         "(0.5 mm is 0.5e-3)")
         if self.refine is not None:
             object.__setattr__(self, "refine", check_refine(self.refine))
+            if self.refine > MAX_REFINE:
+                raise InvalidInputError(f"refine = {self.refine} is above {MAX_REFINE}: a model grid {self.refine} times "
+                                        "finer than the data would need gigabytes per segment (the error budget's "
+                                        "pilot chooses k up to 32 by itself: leave refine unset)")
         check_interpolant(self.interpolant)
-        object.__setattr__(self, "group_model_dx", tuple(
-            (str(key), float(spacing), positive(model_dx, "group_model_dx", "m")) for key, spacing, model_dx in self.group_model_dx))
         if not isinstance(self.sampling_correction, (bool, np.bool_)):
             raise InvalidInputError(f"sampling_correction must be True or False, got {self.sampling_correction!r}")
         object.__setattr__(self, "sampling_correction", bool(self.sampling_correction))
         overlap = finite_number(self.segment_overlap, "segment_overlap")
-        if not 0.0 <= overlap < self.segment_length:
-            raise InvalidInputError(f"segment_overlap must be in [0, segment_length) (m), got {self.segment_overlap!r}")
+        if not 0.0 <= overlap <= MAX_OVERLAP_SHARE * self.segment_length:
+            raise InvalidInputError(
+                f"segment_overlap = {self.segment_overlap!r} m: it must be between 0 and {MAX_OVERLAP_SHARE:g} of "
+                f"segment_length ({MAX_OVERLAP_SHARE * self.segment_length:g} m for segments of {self.segment_length:g} m), "
+                "so that consecutive segments step by at least a quarter of their length")
+        object.__setattr__(self, "segment_overlap", overlap)
         for name, unit in (("spike_alpha", "a slope, no unit"), ("mpd_spike_alpha", "a slope, no unit"),
                            ("speed_kmh", "km/h")):
             value = getattr(self, name)
@@ -197,6 +214,13 @@ class ProcessingOptions:
                 object.__setattr__(self, name, positive(value, name, unit))
         check_band_kind(self.band_kind)
         object.__setattr__(self, "section_length", positive(self.section_length, "section_length", "m"))
+        if self.section_length < MIN_SECTION_LENGTH:
+            raise InvalidInputError(f"section_length = {self.section_length:g} m is shorter than one ISO 13473-1 MPD "
+                                    f"baseline ({MIN_SECTION_LENGTH:g} m), so no section could hold an MPD (it is in "
+                                    "metres: 10 m sections are 10)")
+        if self.speed_kmh is not None and self.speed_kmh > MAX_SPEED_KMH:
+            raise InvalidInputError(f"speed_kmh = {self.speed_kmh:g} km/h is faster than any road vehicle (at most "
+                                    f"{MAX_SPEED_KMH:g} km/h accepted; CPX and CPB measure at 50 to 110 km/h)")
         estimated_texture_depth(0.0, self.etd_edition)   # refuses an unknown edition
         if self.band_method not in ("dft", "filter"):
             raise InvalidInputError(f"band_method must be 'dft' or 'filter', got {self.band_method!r}")
@@ -216,13 +240,10 @@ class ProcessingOptions:
                 "line's --allow-implausible)")
 
     def fingerprint(self) -> str:
-        """SHA-256 of the options and the roadtex version: equal fingerprints give equal results.
-
-        ``group_model_dx`` is left out: a run depends only on its own group's model grid, which
-        its run fingerprint holds (:func:`roadtex.archive.store.run_fingerprint`), so a change in
-        one group's pilot does not make every other group's runs stale. ``allow_implausible`` is
-        left out too: it changes no result of a run that was processed (a run it refused stays on
-        record as failed until retried, ``--retry-failed``)."""
-        options = {k: v for k, v in dataclasses.asdict(self).items() if k not in ("group_model_dx", "allow_implausible")}
+        """SHA-256 of the options and the roadtex version. A run's own fingerprint adds its plan entry
+        and its file (:func:`roadtex.archive.store.run_fingerprint`). ``allow_implausible`` is left
+        out: it changes no result of a run that was processed (a run it refused stays on record as
+        failed until retried, ``--retry-failed``)."""
+        options = {k: v for k, v in dataclasses.asdict(self).items() if k != "allow_implausible"}
         payload = json.dumps({"options": options, "roadtex": __version__}, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()

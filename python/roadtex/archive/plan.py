@@ -1,347 +1,255 @@
-"""The job's plan: one sampling interval and one solver tolerance for every run, chosen before any
-run is processed, with the numerical error of every band level they give.
+"""The job's plan: what the job decided for each run, apart from what the user asked.
 
-- **One sampling interval for all runs.** Results of the contact model depend on the sampling
-  interval (the rubber bridges what it cannot resolve), so two devices measuring the same road at
-  0.04 and 0.5 mm would give different contact fractions if each run kept its own. Every run is
-  solved at one interval; runs sampled more coarsely are interpolated to it, runs sampled more
-  finely averaged down.
-- **The error budget** (``ProcessingOptions.error_budget_db``, on by default): a pilot
-  (:func:`roadtex.budget.choose_setting`) per group of runs of the same device and pavement, on a
-  few segments of up to :data:`PILOT_RUNS_PER_GROUP` runs spread over the group, measures how the
-  levels converge with the interval and the tolerance and picks the cheapest setting within the
-  budget. The job takes the finest interval and the tightest tolerance any group needs, so every
-  group stays within the budget. Each run's rows carry its own group's error estimates (a group is
-  a device, a pavement and a sampling interval); a run whose group had no pilot gets the largest
-  estimate of any group.
-- **Without a budget**: the given ``dx`` (or the finest nominal interval among a sample of the
-  runs) and the given ``tol`` (or :data:`DEFAULT_TOL`), and no error estimate.
+:class:`~roadtex.archive.options.ProcessingOptions` is what a user chooses, and stays as given.
+The plan (:class:`JobPlan`, made once per job by :func:`roadtex.archive.planning.plan_job`) is
+what the job decided from it and from the data:
+
+- **Pilot groups** (:class:`GroupPilot`): with an error budget, a pilot per (device, pavement)
+  group and sampling interval measures how the levels converge on a few of the group's segments
+  and picks the cheapest data interval, model grid and tolerance within the budget
+  (:func:`roadtex.budget.choose_setting`), with the error estimate of every band level.
+- **One entry per run** (:class:`RunPlan`, :meth:`JobPlan.line_entry`, :meth:`JobPlan.surface_entry`):
+  the interval its readings are solved at (its own, or coarser where its group's pilot chose to
+  average fine data down; never finer than its own), its model grid (k times finer than that,
+  the run's own readings joined by the interpolant), its tolerance, and where its stated errors
+  come from. A run's results depend on its entry, its file and the roadtex version only: the same
+  run gets the same tables in any archive whose plan gives it the same entry, and its fingerprint
+  (:func:`roadtex.archive.store.run_fingerprint`) is made of exactly those.
+
+Runs of a sampling interval no pilot of their group measured (the pilot reads a few runs of each
+group) are solved on the finest model grid any group needs, at the tightest tolerance, and carry
+the largest error estimate of any group: their rows say so (``error_source``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import polars as pl
 
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
-from roadtex.budget import choose_setting
-from roadtex.errors import ErrorBudgetWarning, RoadtexWarning
-from roadtex.profiles.plausibility import implausible_texture, judged_once, stated_distance_unit
-from roadtex.profiles.profile import Profile
-from roadtex.profiles.readers import READ_OPTIONS, read_profile
-from roadtex.spectra.bands import nominal_label
+from roadtex.archive.reading import group_key
 
-#: Runs read per (device, pavement) group for the pilot (spread evenly over the group).
-PILOT_RUNS_PER_GROUP = 3
-#: Runs read to find the finest interval when there is no budget (spread over the manifest).
-PLAN_SAMPLE_RUNS = 8
-#: Runs tried per sampled run when sampled runs cannot be read (see :func:`readable`).
-PLAN_READ_ATTEMPTS = 3
+#: Relative slack when comparing sampling intervals read from files (floating-point positions).
+SAME_INTERVAL = 1e-9
+
+
+def spacing_key(dx: float) -> float:
+    """A file's interval (m) as its pilot group knows it: two significant digits (0.5 and 0.5004 mm
+    are one device's sampling)."""
+    return float(f"{dx:.2g}")
 
 
 @dataclass(frozen=True)
-class GroupError:
-    """One pilot's error estimates, for the runs of its group.
+class GroupPilot:
+    """One pilot's choice and error estimates, for the runs of its group and sampling interval.
 
     Attributes:
-        key: the (device, pavement) group, as :func:`group_key` writes it.
-        spacing: the runs' nominal sampling interval (m, two significant digits).
-        band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
-            that band for the group's runs at the job's setting.
+        name: the group's name in the tables (``"device / pavement"``, ``" @ 0.5 mm"`` added when
+            the group holds several samplings).
+        key: the (device, pavement) group (:func:`roadtex.archive.reading.group_key`).
+        spacing: the group's sampling interval (m, two significant digits: :func:`spacing_key`).
+        data_dx: the interval the pilot chose to solve at (m): the runs' own, or coarser (their
+            readings averaged down) where that is cheaper within the budget.
+        refine: the model grid's refinement k (solved every ``interval / k``).
+        tol: the solver tolerance chosen (relative residual).
+        band_error_db: band number -> upper estimate (dB) of the numerical error of any level of that
+            band at this setting (inf: a band the setting cannot report).
         worst_error_db: the largest of those in the budget bands (dB).
         within_budget: whether that is within the budget.
-        refine: the model grid refinement the pilot chose for the group.
-        model_dx: the group's model grid interval (m): its runs are solved on it.
-        interpolant_spread_db: band number -> what the group's sampling cannot tell (dB): the
-            spread of the converged levels between interpolants of the readings.
+        interpolant_spread_db: band number -> what the group's sampling cannot tell (dB).
+        pilot_runs: the run ids the pilot read.
+        seconds_per_metre, finest_seconds_per_metre: measured solve time per metre at the chosen
+            setting and at the pilot's reference (s/m); ``work_speedup``: the reference's work over
+            the chosen one's (iterations x N log2 N, independent of the machine's load).
+        pilot_seconds: the pilot's wall time (s) when it ran.
     """
 
+    name: str
     key: str
     spacing: float
+    data_dx: float
+    refine: int
+    tol: float
     band_error_db: dict[int, float]
     worst_error_db: float
     within_budget: bool
-    refine: int = 1
     interpolant_spread_db: dict[int, float] = field(default_factory=dict)
-    model_dx: float | None = None
+    pilot_runs: tuple[str, ...] = ()
+    seconds_per_metre: float = float("nan")
+    finest_seconds_per_metre: float = float("nan")
+    work_speedup: float = float("nan")
+    pilot_seconds: float = 0.0
+
+    @property
+    def model_dx(self) -> float:
+        """The group's model grid interval (m)."""
+        return self.data_dx / self.refine
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """What the job decided for one run: everything its results depend on besides its file.
+
+    Attributes:
+        kind: ``"line"`` or ``"surface"``.
+        data_dx: the interval the run's readings are solved at (m): its file's own (``None`` for a
+            surface: its own spacings), or coarser where its group's pilot chose to average them down.
+        refine: the model grid's refinement k (``None``: a surface run's own areal pilot chooses it).
+        tol: the solver tolerance (``None``: a surface run's own areal pilot chooses it).
+        interpolant: how the readings are joined on the model grid.
+        group: the pilot group whose error estimates the run carries (None: none).
+        error_source: where the run's stated errors come from, in words (None: no error budget).
+    """
+
+    kind: str
+    data_dx: float | None
+    refine: int | None
+    tol: float | None
+    interpolant: str
+    group: str | None = None
+    error_source: str | None = None
+
+    @property
+    def model_dx(self) -> float | None:
+        """The model grid's interval along the road (m), when the plan fixes it."""
+        return None if self.data_dx is None or self.refine is None else self.data_dx / self.refine
+
+    def solved_as(self) -> dict[str, Any]:
+        """The fields that change what the run computes (its fingerprint's share of the plan):
+        the group and error source only label the estimates joined when the job combines the runs."""
+        return {"kind": self.kind, "data_dx": self.data_dx, "refine": self.refine, "tol": self.tol,
+                "interpolant": self.interpolant}
 
 
 @dataclass(frozen=True)
 class JobPlan:
-    """What the job solves every run at, and the numerical error that gives.
+    """The job's plan: the user's options and what the job decided from them (see the module docstring).
 
     Attributes:
-        dx: sampling interval (m).
-        tol: solver tolerance (relative residual).
-        refine: the model grid's refinement k: the contact model is solved every ``dx / refine``.
-        source: how they were chosen.
-        budget_db: the error budget (dB), None when off.
-        within_budget: whether every group's estimate is within the budget (None without budget).
-        worst_error_db: largest estimated error (dB) in the budget bands, any group (None without budget).
-        band_error_db: band number -> upper estimate (dB) of the numerical error of any level of
-            that band (texture, enveloped, pressure; any segment, modulus and group).
-        interpolant_spread_db: band number -> the largest spread (dB) of any group's converged
-            levels between interpolants of the readings: what the sampling cannot tell.
-        seconds_per_metre: the pilots' measured solve time per metre at (dx, tol) (s/m).
-        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
-        speedup: the finest setting's work over the chosen one's (iterations x N log2 N per metre,
-            the pilots' count: unlike the times, the machine's load does not change it).
-        pilot_seconds: wall time of the pilots (s).
-        groups: (device, pavement) groups and the runs each pilot read.
-        group_errors: each pilot's estimates by group name (the names of ``groups``).
-        failed_pilots: group name -> why its pilot could not run (the exception's type and
-            message); those groups' runs get the largest estimate of any group.
-        unread_runs: run id -> why the plan could not use a run it sampled (unreadable, or not
-            plausible road texture in metres); another run of the group took its place where
-            there was one. The run's own processing records its failure too.
+        options: what the user asked, as given.
+        source: how the plan was made, in words.
+        pilots: the pilot groups (empty without an error budget, or where no pilot could run).
+        failed_pilots: group name -> why its pilot could not run.
+        unread_runs: run id -> why the plan could not use a run it sampled (the run's own
+            processing records its failure too).
+        reused_pilots: the names of the pilots taken from the output folder's kept plan (not run again).
     """
 
-    dx: float
-    tol: float
+    options: ProcessingOptions
     source: str
-    refine: int = 1
-    budget_db: float | None = None
-    within_budget: bool | None = None
-    worst_error_db: float | None = None
-    band_error_db: dict[int, float] = field(default_factory=dict)
-    interpolant_spread_db: dict[int, float] = field(default_factory=dict)
-    seconds_per_metre: float | None = None
-    finest_seconds_per_metre: float | None = None
-    speedup: float | None = None
-    pilot_seconds: float = 0.0
-    groups: dict[str, list[str]] = field(default_factory=dict)
-    group_errors: dict[str, GroupError] = field(default_factory=dict)
+    pilots: tuple[GroupPilot, ...] = ()
     failed_pilots: dict[str, str] = field(default_factory=dict)
     unread_runs: dict[str, str] = field(default_factory=dict)
+    reused_pilots: tuple[str, ...] = ()
 
-    def group_of(self, run: dict[str, Any], file_dx: float | None) -> GroupError | None:
-        """The pilot group of a manifest row whose file is sampled at ``file_dx`` (m), or None
-        when no pilot covered its device, pavement and sampling interval."""
+    @classmethod
+    def given(cls, options: ProcessingOptions) -> "JobPlan":
+        """The plan of a job without line pilots: each run at its own interval (or ``options.dx`` where
+        coarser), ``options.refine`` (1 when None) and ``options.tol`` (:data:`DEFAULT_TOL` when None)."""
+        return cls(options=options, source="as given (no pilot)")
+
+    @property
+    def budget_db(self) -> float | None:
+        return self.options.error_budget_db
+
+    def pilot_of(self, run: dict[str, Any], file_dx: float | None) -> GroupPilot | None:
+        """The pilot of a manifest row whose file is sampled every ``file_dx`` m, or None."""
         if file_dx is None or not np.isfinite(file_dx):
             return None
-        key, spacing = group_key(run), float(f"{file_dx:.2g}")
-        return next((g for g in self.group_errors.values() if g.key == key and g.spacing == spacing), None)
+        key, spacing = group_key(run), spacing_key(file_dx)
+        return next((p for p in self.pilots if p.key == key and p.spacing == spacing), None)
 
-    def resolved(self, options: ProcessingOptions) -> ProcessingOptions:
-        """``options`` with the plan's interval, refinement and tolerance filled in (what the runs
-        are solved with); ``tol_from_budget`` when the budget, not the caller, chose the tolerance."""
-        return dataclasses.replace(options, dx=self.dx, tol=self.tol, refine=self.refine,
-                                   group_model_dx=tuple((g.key, g.spacing, g.model_dx) for g in self.group_errors.values()
-                                                        if g.model_dx is not None),
-                                   tol_from_budget=options.tol is None and options.error_budget_db is not None,
-                                   refine_from_budget=options.refine is None and options.error_budget_db is not None)
+    def line_entry(self, run: dict[str, Any], file_dx: float) -> RunPlan:
+        """The plan of a line run whose file is sampled every ``file_dx`` m (see the module docstring)."""
+        options = self.options
+        interval = file_dx if options.dx is None else max(file_dx, options.dx)   # never finer than its readings
+        pilot = self.pilot_of(run, file_dx)
+        if pilot is not None:
+            coarsened = pilot.data_dx > file_dx * (1.0 + SAME_INTERVAL)
+            return RunPlan(kind="line", data_dx=pilot.data_dx if coarsened else interval, refine=pilot.refine,
+                           tol=pilot.tol, interpolant=options.interpolant, group=pilot.name,
+                           error_source=f"the pilot of its group ({pilot.name})")
+        tol = DEFAULT_TOL if options.tol is None else options.tol
+        if options.error_budget_db is None or not self.pilots:
+            why = None if options.error_budget_db is None else "no pilot could run: no error estimate"
+            return RunPlan(kind="line", data_dx=interval, refine=options.refine or 1, tol=tol,
+                           interpolant=options.interpolant, error_source=why)
+        # a sampling no pilot of its group measured: the finest model grid and the tightest tol any
+        # group needs, and the largest estimate of any group, said so in its rows
+        finest = min(p.model_dx for p in self.pilots)
+        refine = options.refine or max(1, int(np.ceil(interval / finest * (1.0 - SAME_INTERVAL))))
+        return RunPlan(kind="line", data_dx=interval, refine=refine, tol=min(p.tol for p in self.pilots),
+                       interpolant=options.interpolant,
+                       error_source=(f"no pilot of {group_key(run)} at {file_dx * 1e3:.3g} mm: the finest model grid "
+                                     "and the largest estimate of any group"))
+
+    def surface_entry(self) -> RunPlan:
+        """The plan of a surface run: its own spacings; with an error budget its own areal pilot
+        chooses k and the tolerance unless the user gave them (:mod:`roadtex.archive.surface_run`)."""
+        options = self.options
+        budget = options.error_budget_db is not None
+        refine = options.refine if options.refine is not None or budget else 1
+        tol = options.tol if options.tol is not None or budget else DEFAULT_TOL
+        return RunPlan(kind="surface", data_dx=None, refine=refine, tol=tol, interpolant=options.interpolant,
+                       error_source="its own areal pilot" if budget else None)
+
+    def band_errors(self, entry: RunPlan) -> tuple[dict[int, float], dict[int, float], float | None, bool | None]:
+        """A line run's stated errors from its entry: (band -> error dB, band -> interpolant spread
+        dB, worst error dB, within budget); the largest of any group where no pilot covered it."""
+        if self.budget_db is None or not self.pilots:
+            return {}, {}, None, None
+        pilot = next((p for p in self.pilots if p.name == entry.group), None)
+        if pilot is not None:
+            return pilot.band_error_db, pilot.interpolant_spread_db, pilot.worst_error_db, pilot.within_budget
+        bands = sorted({b for p in self.pilots for b in p.band_error_db})
+        errors = {b: max(p.band_error_db.get(b, 0.0) for p in self.pilots) for b in bands}
+        spread = {b: max(p.interpolant_spread_db[b] for p in self.pilots if b in p.interpolant_spread_db)
+                  for b in bands if any(b in p.interpolant_spread_db for p in self.pilots)}
+        return (errors, spread, max(p.worst_error_db for p in self.pilots),
+                all(p.within_budget for p in self.pilots))
+
+    @property
+    def worst_error_db(self) -> float | None:
+        return max((p.worst_error_db for p in self.pilots), default=None)
+
+    @property
+    def within_budget(self) -> bool | None:
+        return None if self.budget_db is None or not self.pilots else all(p.within_budget for p in self.pilots)
+
+    @property
+    def work_speedup(self) -> float | None:
+        """The smallest saving of any pilot: its reference's work over its chosen setting's."""
+        finite = [p.work_speedup for p in self.pilots if np.isfinite(p.work_speedup)]
+        return min(finite) if finite else None
 
     def summary(self) -> dict[str, Any]:
-        """The plan as JSON-ready values (parameters.json)."""
-        as_dict = dataclasses.asdict(self)
-        as_dict["band_error_db"] = {str(k): v for k, v in self.band_error_db.items()}
-        as_dict["interpolant_spread_db"] = {str(k): v for k, v in self.interpolant_spread_db.items()}
-        for group in as_dict["group_errors"].values():
-            group["band_error_db"] = {str(k): v for k, v in group["band_error_db"].items()}
-            group["interpolant_spread_db"] = {str(k): v for k, v in group["interpolant_spread_db"].items()}
-        return as_dict
-
-
-def reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str, object]:
-    """The read_profile options of one run: the job's defaults, overridden by the run's manifest columns."""
-    chosen = dict(options.reader_defaults)
-    for name in READ_OPTIONS:
-        value = run.get(name)
-        if value is not None and not (isinstance(value, float) and np.isnan(value)):
-            chosen[name] = value
-    for name in ("distance_column", "height_column"):
-        value = chosen.get(name)
-        if isinstance(value, str) and value.strip().lstrip("-").isdigit():
-            chosen[name] = int(value)   # a column index given in a CSV manifest
-    return chosen
-
-
-def spread(runs: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
-    """Up to ``count`` runs spread evenly over ``runs`` (all of them when there are few)."""
-    if len(runs) <= count:
-        return list(runs)
-    picks = np.unique(np.linspace(0, len(runs) - 1, count).round().astype(int))
-    return [runs[i] for i in picks]
-
-
-def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
-             unread: dict[str, str]) -> list[tuple[dict[str, Any], Profile]]:
-    """Up to ``count`` runs, spread evenly over ``runs``, that can be read, are plausible road
-    texture in metres (or any, with ``options.allow_implausible``) and hold at least one segment,
-    with their profiles. A sampled run that is not is recorded in ``unread``
-    (run id -> why) and its nearest untried neighbour in ``runs`` takes its place, so the sample
-    stays spread; at most :data:`PLAN_READ_ATTEMPTS` runs are tried per sampled one."""
-    picks = [i for i, run in enumerate(runs) if any(run is p for p in spread(runs, count))]
-    tried = set(picks)
-    read: list[tuple[dict[str, Any], Profile]] = []
-    for pick in picks:
-        neighbours = sorted((i for i in range(len(runs)) if i not in tried), key=lambda i: (abs(i - pick), i))
-        for index in [pick] + neighbours[:PLAN_READ_ATTEMPTS - 1]:
-            tried.add(index)
-            run = runs[index]
-            try:
-                with warnings.catch_warnings(), judged_once():   # judged below, once
-                    warnings.simplefilter("ignore", RoadtexWarning)
-                    profile = read_profile(run["path"], format=run.get("format"), **reader_options(run, options))
-            except Exception as exc:  # noqa: BLE001 - the run's own processing records the failure too
-                unread[str(run["run_id"])] = f"{type(exc).__name__}: {exc}"
-                continue
-            reason = implausible_texture(profile.heights, profile.dx, str(run["path"]),
-                                         interval_stated=stated_distance_unit(profile.metadata) is not None)
-            if options.allow_implausible:   # solved as read, as the run is
-                reason = None
-            if reason is None and profile.length < options.segment_length:
-                # no segment to pilot on (the run fails on its own): a neighbour stands in for it
-                reason = (f"{profile.length:.4g} m long, shorter than one {options.segment_length:g} m segment")
-            if reason is not None:
-                unread[str(run["run_id"])] = reason
-                continue
-            read.append((run, profile))
-            break
-    return read
-
-
-def group_key(run: dict[str, Any]) -> str:
-    return f"{run.get('device') or 'any device'} / {run.get('pavement') or 'any pavement'}"
-
-
-def run_refine(run: dict[str, Any], file_dx: float, dx: float, options: ProcessingOptions) -> int:
-    """The model grid refinement of a line run (file sampled every ``file_dx`` m, conditioned to
-    ``dx`` m): its pilot group's model grid (``options.group_model_dx``), else ``options.refine``."""
-    key, spacing = group_key(run), float(f"{file_dx:.2g}")
-    for group, group_spacing, model_dx in options.group_model_dx:
-        if group == key and group_spacing == spacing:
-            return max(1, int(np.ceil(dx / model_dx * (1.0 - 1e-9))))
-    return int(options.refine or 1)
-
-
-def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads: int | None = None) -> tuple[JobPlan, pl.DataFrame]:
-    """Chooses the job's sampling interval and tolerance (see the module docstring).
-
-    Returns:
-        The plan, and the pilots' study rows (one per group, setting and band; empty without a
-        budget) for pilot.parquet and the report's speed-against-error figure.
-    """
-    # the pilots sample runs by position: in a stable order, so that the same runs listed in another
-    # order give the same plan (32 runs reversed gave worst errors of 0.381 against 0.415 dB)
-    runs = sorted(runs, key=lambda run: (str(run["run_id"]), str(run["path"])))
-    if options.error_budget_db is None:
-        return plan_without_budget(runs, options), pl.DataFrame()
-    if not runs:   # surface runs only: each has its own pilot, spacings and tol
-        return JobPlan(dx=options.dx or 0.5e-3, tol=DEFAULT_TOL if options.tol is None else options.tol,
-                       refine=options.refine or 1,
-                       source="no line run to plan for (surface runs: their own spacings, and their own "
-                              "pilots' tolerances and error estimates)"), pl.DataFrame()
-    groups: dict[str, list[dict[str, Any]]] = {}
-    for run in runs:
-        groups.setdefault(group_key(run), []).append(run)
-    choices, studies, read_runs, group_errors = [], [], {}, {}
-    failed: dict[str, str] = {}
-    unread: dict[str, str] = {}
-    for key, members in groups.items():
-        # one pilot per sampling interval within the group (a pilot compares runs on one grid)
-        by_dx: dict[float, list[tuple[dict[str, Any], Profile]]] = {}
-        for run, profile in readable(members, options, PILOT_RUNS_PER_GROUP, unread):
-            by_dx.setdefault(float(f"{profile.dx:.2g}"), []).append((run, profile))
-        for spacing, read in by_dx.items():
-            name = key if len(by_dx) == 1 else f"{key} @ {spacing * 1e3:g} mm"
-            try:
-                # the pilot's runs were judged plausible by readable(): its solves and spectra do not
-                # judge them again
-                with judged_once():
-                    choice = choose_setting(
-                        [profile for _, profile in read], youngs_moduli=options.youngs_moduli,
-                        mean_pressure=options.mean_pressure, segment_length=options.segment_length,
-                        budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
-                        forced_refine=options.refine,
-                        poisson=options.poisson, band_kind=options.band_kind, spike_alpha=options.spike_alpha,
-                        max_iterations=options.max_iterations, threads=threads)
-            except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
-                # recorded (parameters.json's plan) and warned, never dropped silently
-                failed[name] = f"{type(exc).__name__}: {exc}"
-                warnings.warn(f"the error budget pilot of group {name!r} (runs {', '.join(r['run_id'] for r, _ in read)}) "
-                              f"could not run ({failed[name]}); its runs get the largest estimate of any group",
-                              ErrorBudgetWarning, stacklevel=3)
-                continue
-            choices.append(choice)
-            read_runs[name] = [run["run_id"] for run, _ in read]
-            group_errors[name] = GroupError(key=key, spacing=spacing, band_error_db=dict(choice.band_error_db),
-                                            worst_error_db=float(choice.worst_error_db),
-                                            within_budget=bool(choice.within_budget), refine=choice.refine,
-                                            model_dx=float(choice.model_dx),
-                                            interpolant_spread_db=dict(choice.interpolant_spread_db))
-            studies.append(choice.study.with_columns(
-                pl.lit(name).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("refine") == choice.refine)
-                                              & (pl.col("tol") == choice.tol)).alias("chosen")))
-    if not choices:
-        fallback = plan_without_budget(runs, options)
-        return dataclasses.replace(fallback, source=fallback.source + " (no pilot possible: no run could be read "
-                                                                      "and cut into segments)",
-                                   failed_pilots=failed, unread_runs={**unread, **fallback.unread_runs}), pl.DataFrame()
-    dx = min(c.dx for c in choices)
-    tol = min(c.tol for c in choices)
-    # the finest model grid any group needs, on the job's data interval
-    refine = max(1, int(np.ceil(dx / min(c.model_dx for c in choices) * (1.0 - 1e-9))))
-    bands = sorted({b for c in choices for b in c.band_error_db})
-    band_error = {b: max(c.band_error_db.get(b, 0.0) for c in choices) for b in bands}
-    spread = {b: max(c.interpolant_spread_db[b] for c in choices if b in c.interpolant_spread_db)
-              for b in bands if any(b in c.interpolant_spread_db for c in choices)}
-    within = all(c.within_budget for c in choices)
-    worst = max(c.worst_error_db for c in choices)
-    if not within:
-        missed = "; ".join(missed_budget(name, g, dx) for name, g in group_errors.items() if not g.within_budget)
-        where = (f"in every group at the given dx of {options.dx * 1e3:g} mm" if options.dx is not None
-                 else "at the data's sampling of every group")
-        warnings.warn(
-            f"the error budget of {options.error_budget_db:g} dB cannot be met {where}: "
-            f"the smallest estimated error in the tyre/road noise bands is {missed}; the job runs at the cheapest "
-            "setting near that floor and states the error of every band (bands.parquet level_error_db)",
-            ErrorBudgetWarning, stacklevel=3)
-    study = pl.concat(studies, how="diagonal_relaxed")
-    per_group = study.group_by("group").agg(
-        pl.col("work_per_metre").filter(pl.col("chosen")).max().alias("chosen"),
-        pl.col("work_per_metre").filter(pl.col("reference")).max().alias("finest"))
-    speedup = float((per_group["finest"] / per_group["chosen"]).min())
-    plan = JobPlan(
-        dx=float(dx), tol=float(tol), refine=refine, source=f"error budget pilots of {len(choices)} group(s)",
-        budget_db=options.error_budget_db, within_budget=within, worst_error_db=float(worst), band_error_db=band_error,
-        interpolant_spread_db=spread,
-        seconds_per_metre=float(max(c.seconds_per_metre for c in choices)),
-        finest_seconds_per_metre=float(max(c.finest_seconds_per_metre for c in choices)), speedup=speedup,
-        pilot_seconds=float(sum(c.pilot_seconds for c in choices)), groups=read_runs, group_errors=group_errors,
-        failed_pilots=failed, unread_runs=unread)
-    return plan, study
-
-
-def missed_budget(name: str, group: "GroupError", dx: float) -> str:
-    """A group's smallest error in the budget bands, in words: "name: 0.4 dB", or, where some
-    budget bands are not reported at ``dx`` (m; too coarse to resolve their wavelengths, so no
-    error can be stated: an infinite estimate), which bands and the largest error of the others."""
-    if np.isfinite(group.worst_error_db):
-        return f"{name}: {group.worst_error_db:.3g} dB"
-    unreported = sorted(b for b, e in group.band_error_db.items() if not np.isfinite(e))
-    finite = [e for e in group.band_error_db.values() if np.isfinite(e)]
-    span = nominal_label(unreported[0]) + ("" if len(unreported) == 1 else f" to {nominal_label(unreported[-1])}")
-    others = f"; the bands it reports err by up to {max(finite):.3g} dB" if finite else ""
-    return (f"{name}: no error can be stated for {len(unreported)} of its budget bands ({span} mm), which dx "
-            f"{dx * 1e3:g} mm is too coarse to report{others}")
-
-
-def plan_without_budget(runs: list[dict[str, Any]], options: ProcessingOptions) -> JobPlan:
-    tol = DEFAULT_TOL if options.tol is None else options.tol
-    refine = options.refine or 1   # without a budget, the data's own grid unless one is given
-    if options.dx is not None:
-        return JobPlan(dx=options.dx, tol=tol, refine=refine, source="given")
-    unread: dict[str, str] = {}
-    read = readable(runs, options, PLAN_SAMPLE_RUNS, unread)
-    if not read:
-        return JobPlan(dx=0.5e-3, tol=tol, refine=refine, source="ISO 13473-1 grid (no sampled run could be read)",
-                       unread_runs=unread)
-    return JobPlan(dx=float(min(profile.dx for _, profile in read)), tol=tol, refine=refine,
-                   source=f"finest of {len(read)} sampled runs", groups={"all": [run["run_id"] for run, _ in read]},
-                   unread_runs=unread)
+        """The plan as JSON-ready values (parameters.json ``plan``; an error a setting cannot state,
+        infinite, as null): each pilot group's choice and estimates (``group_errors``, by name; the
+        runs each read in ``groups``), their largest errors and smallest saving over the groups."""
+        def clean(value: Any) -> Any:
+            if isinstance(value, float) and not np.isfinite(value):
+                return None
+            if isinstance(value, dict):
+                return {str(k): clean(v) for k, v in value.items()}
+            if isinstance(value, (list, tuple)):
+                return [clean(v) for v in value]
+            return value
+        pilots = self.pilots
+        bands = sorted({b for p in pilots for b in p.band_error_db})
+        worst_band = {b: max(p.band_error_db.get(b, 0.0) for p in pilots) for b in bands}
+        spread = {b: max(p.interpolant_spread_db[b] for p in pilots if b in p.interpolant_spread_db)
+                  for b in bands if any(b in p.interpolant_spread_db for p in pilots)}
+        return clean({
+            "source": self.source, "budget_db": self.budget_db, "within_budget": self.within_budget,
+            "worst_error_db": self.worst_error_db, "band_error_db": worst_band, "interpolant_spread_db": spread,
+            "speedup": self.work_speedup,
+            "seconds_per_metre": max((p.seconds_per_metre for p in pilots), default=None),
+            "finest_seconds_per_metre": max((p.finest_seconds_per_metre for p in pilots), default=None),
+            "pilot_seconds": sum(p.pilot_seconds for p in pilots if p.name not in self.reused_pilots),
+            "groups": {p.name: list(p.pilot_runs) for p in pilots},
+            "group_errors": {p.name: {**dataclasses.asdict(p), "model_dx": p.model_dx} for p in pilots},
+            "failed_pilots": self.failed_pilots, "unread_runs": self.unread_runs,
+            "reused_pilots": list(self.reused_pilots)})

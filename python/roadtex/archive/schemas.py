@@ -106,9 +106,9 @@ RUN_COLUMNS: Columns = {
     "path": (pl.String(), None),
     "format": (pl.String(), None),                # as given in the manifest (null: guessed from the file)
     "file_dx": (pl.Float64(), "m"),               # the file's own nominal sampling interval
-    "dx_used": (pl.Float64(), "m"),               # the sampling interval the run was solved at (the job's;
-                                                  # a surface run's own dx along the road)
-    "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (the job's; a surface run's own pilot's choice)
+    "dx_used": (pl.Float64(), "m"),               # the interval the run's readings were solved at: file_dx, or coarser
+                                                  # where its group's pilot averaged them down (never finer)
+    "tol_used": (pl.Float64(), "1"),              # the solver tolerance it was solved at (its plan's; a surface run's own pilot's choice)
     "refine": (pl.Int64(), "1"),                  # k: the contact model's grid is k times finer than dx_used (along
                                                   # the road), the readings joined (roadtex.models.grid)
     "refine_across": (pl.Int64(), "1"),           # ... and across it (surface runs; null: line runs)
@@ -141,6 +141,8 @@ RUN_COLUMNS: Columns = {
     "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
                                                   # surface runs: tol 1e-10 against the job's, same spacings)
     "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
+    "error_source": (pl.String(), None),          # where the stated errors come from: its group's pilot, or (no pilot
+                                                  # of its group and sampling) the largest of any group; null: no budget
 }
 PILOT_COLUMNS: Columns = {
     "group": (pl.String(), None),                 # device / pavement group of runs sharing one pilot
@@ -343,7 +345,7 @@ SECTION_BAND_SCHEMA = schema(SECTION_BAND_COLUMNS)
 SAMPLING_BAND_COLUMNS = ("sampling_bias_db", "sampling_correction_db", "sampling_uncertainty_db",
                          "sampling_run_uncertainty_db")
 PLAN_BAND_COLUMNS = ("level_error_db", "interpolant_spread_db", "sampling_limited")
-PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction")
+PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction", "error_source")
 RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}
 RUN_RUN_SCHEMA = {k: v for k, v in RUN_SCHEMA.items() if k not in PLAN_RUN_COLUMNS}
 #: Each table the job writes, by file stem, with its declaration.

@@ -101,13 +101,14 @@ def read_status(run_dir: Path) -> dict[str, Any] | None:
 
 
 def run_fingerprint(options_fingerprint: str, input_sha256: str, run: dict[str, Any],
-                    model_grids: list[Any] | tuple[Any, ...] = ()) -> str:
-    """SHA-256 of what a run's results depend on: the options, the input file, the run's metadata
-    and ``model_grids``, the model grids of its own error-budget group (ProcessingOptions.group_model_dx
-    entries of its device and pavement)."""
+                    reading: dict[str, Any], solved_as: dict[str, Any] | None) -> str:
+    """SHA-256 of what a run's results depend on, and nothing else: the user's options (with the
+    roadtex version), the input file's bytes, the run's metadata and reader options (``reading``,
+    the manifest's columns over the job's defaults) and its plan entry (``solved_as``:
+    :meth:`roadtex.archive.plan.RunPlan.solved_as`; None for a run that failed before its file's
+    interval was known)."""
     metadata = {name: run.get(name) for name in (*METADATA_COLUMNS, "format")}
-    payload = json.dumps([options_fingerprint, input_sha256, metadata, *([list(model_grids)] if model_grids else [])],
-                         sort_keys=True, default=str)
+    payload = json.dumps([options_fingerprint, input_sha256, metadata, reading, solved_as], sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()
 
 

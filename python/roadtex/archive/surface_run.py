@@ -37,16 +37,15 @@ import polars as pl
 
 from roadtex.archive.areal_outputs import areal_table
 from roadtex.archive.compute import plausibility_notes, run_stage, segment_mpd
-from roadtex.archive.options import ProcessingOptions
+from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
+from roadtex.archive.plan import JobPlan, RunPlan
+from roadtex.archive.reading import surface_reader_options
 from roadtex.archive.schemas import (
-    METADATA_COLUMNS,
-    RUN_BAND_SCHEMA,
     RUN_RUN_SCHEMA,
-    SAMPLING_BAND_COLUMNS,
-    SEGMENT_SCHEMA,
     SURFACE_ERROR_SCHEMA,
     SURFACE_EXAMPLE_SCHEMA,
 )
+from roadtex.archive.tables import band_frame, defined_levels, model_levels, segment_frame
 from roadtex.budget.areal import (
     AREAL_PILOT_POINTS,
     WINDOW_FACTOR,
@@ -80,34 +79,9 @@ from roadtex.surfaces.tiles import plane_fits
 SURFACE_LINES = 5
 #: Fewest rows across the road the areal model takes (its solver's least, 4 points each way).
 MIN_SURFACE_ROWS = 4
-#: ``format`` values of the manifest that make a run a surface run (besides a ``.crg`` file).
-SURFACE_FORMATS = ("surface", "crg")
-#: Reader options of a surface run taken from its manifest row (m for dx, dy).
-SURFACE_READ_OPTIONS = ("dx", "dy", "height_unit", "distance_unit")
-
-
 #: Surface points per solver call: the tiles of a run are solved a chunk of this many points at a
 #: time, so memory does not grow with the run's length (as CHUNK_SEGMENTS does for line runs).
 CHUNK_POINTS = 4_000_000
-
-def is_surface_run(run: dict[str, Any]) -> bool:
-    """Whether a manifest row is a surface run: ``format`` "surface" (or "crg"), or a ``.crg`` file."""
-    fmt = run.get("format")
-    return (isinstance(fmt, str) and fmt.lower() in SURFACE_FORMATS) or Path(run["path"]).suffix.lower() == ".crg"
-
-
-def surface_reader_options(run: dict[str, Any], options: ProcessingOptions) -> dict[str, Any]:
-    """:func:`roadtex.surfaces.read_surface` options of one run: the job's reader defaults that apply
-    to surfaces, overridden by the run's manifest columns (``dx``, ``dy`` in m, units)."""
-    chosen = {k: v for k, v in options.reader_defaults.items() if k in SURFACE_READ_OPTIONS}
-    for name in SURFACE_READ_OPTIONS:
-        value = run.get(name)
-        if value is not None and not (isinstance(value, float) and np.isnan(value)):
-            chosen[name] = value
-    fmt = run.get("format")
-    chosen["format"] = "crg" if isinstance(fmt, str) and fmt.lower() == "crg" else None
-    return chosen
-
 
 def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, CleaningSummary]:
     """Gross outliers (drop-out codes) and spikes flagged as the line runs flag them
@@ -123,11 +97,13 @@ def line_rows(rows: int) -> np.ndarray:
     return np.unique(np.linspace(0, rows - 1, min(SURFACE_LINES, rows)).round().astype(int))
 
 
-def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
-                        threads: int | None = None) -> dict[str, pl.DataFrame | None]:
+def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
+                        threads: int | None = None) -> dict[str, Any]:
     """Reads, conditions, tiles and solves one surface run with the areal and the line model.
 
-    ``options.tol`` must be set (the job's plan); the surface is solved at its own spacings.
+    The surface is solved at its own spacings, on the model grid and at the tolerance its plan
+    entry gives (:meth:`~roadtex.archive.plan.JobPlan.surface_entry`), or those its own areal pilot
+    chooses where the entry leaves them to it. ``plan`` may be bare :class:`ProcessingOptions`.
 
     Returns:
         The run's tables (``segments``, ``bands``, ``run``; ``example`` is None), as line runs
@@ -138,13 +114,13 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         ``areal``: ISO 25178-2 parameters of the surface and of each tile (AREAL_SCHEMA);
         ``pilot_note`` (a string, not a table): why the pilot could not run, else None; and the
         notes on plausibility, ``implausible_note`` and ``sampling_note``
-        (:func:`~roadtex.archive.compute.plausibility_notes`).
+        (:func:`~roadtex.archive.compute.plausibility_notes`); ``plan_entry``: its plan entry.
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve).
     """
-    if options.tol is None:
-        raise InvalidInputError("compute_surface_run needs options.tol (the job's plan sets it)")
+    plan = plan if isinstance(plan, JobPlan) else JobPlan.given(plan)
+    options, entry = plan.options, plan.surface_entry()
     name = Path(run["path"]).name
     reader = surface_reader_options(run, options)
     # judged here, and refused or noted: no warning from the reader that it computes as given
@@ -188,7 +164,7 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
     errors, pilot_note = None, None
     if options.error_budget_db is not None:
         try:
-            errors = run_stage("pilot", lambda: pilot_errors(tiles, lines, rows, moduli, bands, options, threads))
+            errors = run_stage("pilot", lambda: pilot_errors(tiles, lines, rows, moduli, bands, options, entry, threads))
         except RunFailure as failure:  # as a line group's pilot: recorded and warned, the run goes on
             pilot_note = f"the areal pilot failed: {type(failure.cause).__name__}: {failure.cause}"
         if errors is None and pilot_note is None:
@@ -198,8 +174,9 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
         if pilot_note is not None:
             warnings.warn(f"{name} (run {run['run_id']!r}): {pilot_note}; its levels have no error estimate "
                           "(level_error_db null; parameters.json surface_pilot_notes)", ErrorBudgetWarning, stacklevel=2)
-    tol = options.tol if errors is None else errors.tol   # the pilot's choice (the given tol when forced)
-    refine = (surface_refine(options) or 1) if errors is None else errors.refine   # the model grid's k, each way
+    # the pilot's choices (the given ones when forced), else the entry's
+    tol = (entry.tol or DEFAULT_TOL) if errors is None else errors.tol
+    refine = (entry.refine or 1) if errors is None else errors.refine   # the model grid's k, each way
     # Memory stays bounded as for line runs: the tiles are solved a chunk at a time (the solver's
     # envelopes and pressures, for every modulus, are what grows with the run's length).
     chunk = max(1, CHUNK_POINTS // (n_y * n_x * refine ** 2))
@@ -217,16 +194,14 @@ def compute_surface_run(run: dict[str, Any], options: ProcessingOptions, *,
             example = frames["example"]
     band_frames = [f for frames_ in by_model["bands"].values() for f in frames_]
     segment_frames = [f for frames_ in by_model["segments"].values() for f in frames_]
-    level_columns = ["texture_level", "enveloped_level", "pressure_level"]
     return {
+        "plan_entry": entry,
         "example": None,
         "surface_example": example,
         "level_errors": None if errors is None else error_table(run["run_id"], errors),
         "pilot_note": pilot_note,
-        "segments": pl.concat(segment_frames).with_columns(pl.col("mpd").fill_nan(None)),
-        "bands": pl.concat(band_frames).with_columns(
-            pl.col("frequency").fill_nan(None),
-            *[pl.when(pl.col(c).is_finite()).then(pl.col(c)).otherwise(None).alias(c) for c in level_columns]),
+        "segments": pl.concat(segment_frames),
+        "bands": defined_levels(pl.concat(band_frames)),
         "run": surface_run_table(run, raw, surface, cleaning, depths, n_tiles, tol, refine),
         "areal": run_stage("segment", lambda: areal_table(run["run_id"], surface, tiles)),
         **notes,
@@ -268,17 +243,10 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
     areal_p = row_strips(areal.pressure, rows, refine)
     line_env = line_batch.envelope.reshape(n_tiles, len(rows), moduli.size, fine_x)
     line_p = line_batch.pressure.reshape(n_tiles, len(rows), moduli.size, fine_x)
-    wanted = bands["band"].to_numpy()
 
     def levels(values: np.ndarray, reference: float | None = None) -> np.ndarray:
-        extra = {} if reference is None else {"reference": reference}
-        table = run_stage("spectra", lambda: band_levels(values.reshape(-1, fine_x), dx / refine, kind=kind,
-                                                         periodic=True, method=method, **extra))
-        if refine == 1:
-            return table.levels
-        # the data's bands only: the model grid's shorter ones are not the data's to report
-        numbers = table.bands["band"].to_numpy()
-        return table.levels[:, [int(np.flatnonzero(numbers == b)[0]) for b in wanted]]
+        return run_stage("spectra", lambda: model_levels(values.reshape(-1, fine_x), dx / refine, bands, kind=kind,
+                                                         method=method, reference=reference))
 
     texture_levels = texture.levels.reshape(n_tiles, len(rows), 1, -1)
     n_bands = bands.height
@@ -290,25 +258,9 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
         p_levels = levels(pres, REFERENCE_PRESSURE).reshape(n_tiles, len(rows), moduli.size, n_bands)
         tile_i, line_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), rows, np.arange(moduli.size),
                                                                 indexing="ij"))
-        count = tile_i.size
-        band_frames.append(pl.DataFrame({
-            "run_id": [run["run_id"]] * (count * n_bands),
-            "model": [model] * (count * n_bands),
-            "segment": np.repeat(part[tile_i], n_bands),
-            "line": np.repeat(line_i, n_bands),
-            "youngs_modulus": np.repeat(moduli[mod_i], n_bands),
-            "band": np.tile(bands["band"].to_numpy(), count),
-            "label": np.tile(bands["label"].to_numpy(), count),
-            "centre_wavelength": np.tile(bands["centre_wavelength"].to_numpy(), count),
-            "frequency": np.tile(frequency, count),
-            "reported": np.tile(bands["reported"].to_numpy(), count),
-            "reason": np.tile(bands["reason"].to_numpy(), count),
-            "texture_level": np.broadcast_to(texture_levels, env_levels.shape).ravel(),
-            "enveloped_level": env_levels.ravel(),
-            "pressure_level": p_levels.ravel(),
-            # the sampling calibration is of line runs' levels (roadtex.budget.sampling): none stated here
-            **{c: [None] * (count * n_bands) for c in SAMPLING_BAND_COLUMNS},
-        }).select([pl.col(c).cast(t) for c, t in RUN_BAND_SCHEMA.items()]))
+        # the sampling calibration is of line runs' levels (roadtex.budget.sampling): none stated here
+        band_frames.append(band_frame(run["run_id"], model, part[tile_i], line_i, moduli[mod_i], bands, frequency,
+                                      np.broadcast_to(texture_levels, env_levels.shape), env_levels, p_levels))
 
     line_mpd = line_mpd[part]
     segment_frames = []
@@ -360,18 +312,12 @@ def tile_lines(tiles: Any, part: np.ndarray, lines: list[Any],
     return heights, line_heights, heights[:, rows, :] - line_heights
 
 
-def surface_refine(options: ProcessingOptions) -> int | None:
-    """The k a surface run is forced to: the caller's ``refine``, not the one the line runs' plan
-    chose (``refine_from_budget``: surface runs choose their own from their areal pilot)."""
-    return None if options.refine_from_budget else options.refine
-
-
 def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame,
-                 options: ProcessingOptions, threads: int | None) -> SurfaceErrors | None:
+                 options: ProcessingOptions, entry: RunPlan, threads: int | None) -> SurfaceErrors | None:
     """The areal pilot's choice of tolerance and error estimates of the run's levels
     (:mod:`roadtex.budget.areal`), or None when one window is too large for it."""
     n_tiles, n_y, n_x = tiles.heights.shape
-    top = refine_ladder(surface_refine(options))[-1]
+    top = refine_ladder(entry.refine)[-1]
     window, _ = pilot_window(n_y, n_x, rows, top)
     chosen = pilot_tile_indices(n_tiles, window.size * n_x, top)
     if chosen.size == 0:
@@ -390,12 +336,12 @@ def pilot_errors(tiles: Any, lines: list[Any], rows: np.ndarray, moduli: np.ndar
         in_budget=in_budget(reported, tiles.dx, tiles.length, options.band_kind),
         run_rows=n_tiles * rows.size * moduli.size, youngs_moduli=moduli, mean_pressure=options.mean_pressure,
         poisson=options.poisson, budget_db=float(options.error_budget_db or 0.0),
-        tols=DEFAULT_TOLERANCES if options.tol_from_budget else (float(options.tol),),
+        tols=DEFAULT_TOLERANCES if entry.tol is None else (float(entry.tol),),
         band_kind=options.band_kind,
         band_method=options.band_method, max_iterations=options.max_iterations, threads=threads,
         pilot_tiles=tuple(int(t) for t in chosen),
         window_factor=WINDOW_FACTOR if window.size < n_y else 1.0,
-        refine=surface_refine(options), interpolant=options.interpolant, tile_points=n_y * n_x)  # type: ignore[arg-type]
+        refine=entry.refine, interpolant=entry.interpolant, tile_points=n_y * n_x)  # type: ignore[arg-type]
 
 
 def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
@@ -411,22 +357,6 @@ def error_table(run_id: str, errors: SurfaceErrors) -> pl.DataFrame:
         "refine_along": [errors.refine] * (count * len(models)),
         "refine_across": [errors.refine] * (count * len(models)),
     }, schema=SURFACE_ERROR_SCHEMA)
-
-
-def segment_frame(run: dict[str, Any], model: str, tile: np.ndarray, line: np.ndarray | None, modulus: np.ndarray,
-                  start: np.ndarray, length: float, mpd: np.ndarray, rms: np.ndarray, measures: dict[str, np.ndarray],
-                  residual: np.ndarray, iterations: np.ndarray, converged: np.ndarray) -> pl.DataFrame:
-    """Rows of segments.parquet for one model (SEGMENT_SCHEMA)."""
-    count = tile.size
-    columns: dict[str, Any] = {
-        "run_id": [run["run_id"]] * count, "model": [model] * count, "segment": tile,
-        "line": [None] * count if line is None else line, "youngs_modulus": modulus, "start": start,
-        "end": start + length, **{name: [run.get(name)] * count for name in METADATA_COLUMNS},
-        "mpd": mpd, "rms_height": rms, **measures, "residual": residual, "iterations": iterations,
-        "converged": converged,
-    }
-    return pl.DataFrame({k: (v if isinstance(v, list) else np.asarray(v)) for k, v in columns.items()},
-                        schema=SEGMENT_SCHEMA)
 
 
 def surface_run_table(run: dict[str, Any], raw: Surface, surface: Surface, cleaning: CleaningSummary, depths: list[Any],

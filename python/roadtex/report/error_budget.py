@@ -66,15 +66,13 @@ def setting_sentence(dx: float, refine: int | None, tol: float | None) -> str:
 
 
 def line_setting(plan: dict) -> str:
-    """The line runs' setting in a sentence: one k for all (:func:`setting_sentence`), or the job's
-    dx and tol with each pilot group's own k ("k = 6 to 8 by pilot group (model grid ...)")."""
-    ks = sorted({int(g["refine"]) for g in (plan.get("group_errors") or {}).values() if g.get("refine")})
-    if len(ks) < 2:
-        return setting_sentence(plan["dx"], plan.get("refine"), plan.get("tol"))
-    dx = plan["dx"]
-    return (f"dx = {plain(dx * MM)} mm, k = {ks[0]} to {ks[-1]} by pilot group (model grid "
-            f"{plain(dx / ks[-1] * MM)} to {plain(dx / ks[0] * MM)} mm; runs.parquet refine, model_dx), "
-            f"tol = {tolerance(plan.get('tol'))}")
+    """The line runs' settings in a sentence: each pilot group's (:func:`setting_sentence`), every run
+    on its own readings ("group: dx = 0.5 mm, k = 8 (...), tol = ...; ...")."""
+    groups = plan.get("group_errors") or {}
+    if not groups:
+        return "each run on its own readings (runs.parquet dx_used, refine, tol_used)"
+    return "; ".join(f"{html.escape(name)}: {setting_sentence(g['data_dx'], g.get('refine'), g.get('tol'))}"
+                     for name, g in groups.items())
 
 
 def point_label(dx: float, refine: int) -> str:
@@ -98,11 +96,9 @@ def pilot_state(results: Results) -> str | None:
         if budget is not None:
             return ("No pilot: the job had an error budget but no pilot could run (parameters.json plan: "
                     "failed_pilots, unread_runs), so no level carries an error estimate.")
-        setting = ""
-        if plan.get("dx") is not None:
-            setting = f" (every run solved at {setting_sentence(plan['dx'], plan.get('refine'), plan.get('tol'))})"
-        return (f"No pilot: the job ran with the error budget off{setting}, so no candidate setting was "
-                "evaluated and no level carries an error estimate.")
+        return ("No pilot: the job ran with the error budget off (each run on its own readings: runs.parquet "
+                "dx_used, refine, tol_used), so no candidate setting was evaluated and no level carries an error "
+                "estimate.")
     return None
 
 
@@ -332,9 +328,9 @@ def sampling_summary(results: Results) -> str:
 
 def choosable(points: pl.DataFrame, results: Results) -> pl.DataFrame:
     """The settings of :func:`setting_points` the pilots could choose from: those matching what the
-    caller forced (parameters.json ``requested_options`` dx, refine, tol; for dx the group's
-    nearest interval, as the pilot takes it); all of them when nothing was forced."""
-    requested = results.parameters.get("requested_options") or {}
+    caller forced (parameters.json ``options`` dx, refine, tol; for dx the group's nearest interval,
+    as the pilot takes it); all of them when nothing was forced."""
+    requested = results.parameters.get("options") or {}
     chosen = points
     if requested.get("dx") is not None:
         gap = (pl.col("dx") - requested["dx"]).abs()
@@ -382,7 +378,8 @@ def budget_summary(results: Results) -> str:
         f"in the tyre/road noise bands (those marked “in budget” below: reported, and overlapping {plain(f_low)} Hz to "
         f"{plain(f_high / 1e3)} kHz at {plain(v_low)} to {plain(v_high)} km/h, wavelengths {plain(shortest * MM)} "
         f"to {plain(longest * MM)} mm). "
-        f"Every line run was solved at {line_setting(plan)}: the contact "
+        f"Every line run was solved on its own readings, as its pilot group chose ({line_setting(plan)}; a run of "
+        "a sampling no pilot measured on the finest model grid of any group, runs.parquet error_source): the contact "
         f"model on a grid k times finer than the data's, the readings {joined}, texture levels the data's "
         f"({html.escape(str(plan.get('source', '')))}){surfaces}. "
         f"Within budget: {'yes' if within else 'no'}; worst estimated error in the budget bands "
