@@ -65,13 +65,12 @@ def test_every_band_is_kept_with_reported_and_reason(mixed) -> None:
     assert not bands.select(pl.col("texture_level", "enveloped_level", "pressure_level").is_nan().any()).row(0)[0]
 
 
-def test_one_sampling_interval_for_every_run(mixed) -> None:
+def test_each_run_is_solved_at_its_own_interval(mixed) -> None:
+    """No job-wide grid: the 0.5 mm file is solved on its own readings, not interpolated to 0.25 mm."""
     _, out = mixed
-    runs = pl.read_parquet(out / "runs.parquet")
-    assert sorted(runs["file_dx"].to_list()) == pytest.approx([0.25e-3, 0.5e-3])
-    assert runs["dx_used"].to_list() == pytest.approx([0.25e-3, 0.25e-3])
-    plan = json.loads((out / "parameters.json").read_text())["plan"]
-    assert plan["dx"] == pytest.approx(0.25e-3)
+    runs = pl.read_parquet(out / "runs.parquet").sort("file_dx")
+    assert runs["file_dx"].to_list() == pytest.approx([0.25e-3, 0.5e-3])
+    assert runs["dx_used"].to_list() == runs["file_dx"].to_list()
 
 
 def test_mpd_carries_its_validity(mixed) -> None:
@@ -172,8 +171,8 @@ def run_estimates_are_their_groups(out: Path) -> bool:
 def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) -> None:
     """Runs at 0.25 and 0.5 mm get a pilot each; every run's rows state its own group's estimates,
     not the largest over the groups (the 0.5 mm group's floor used to be stamped on the 0.25 mm run).
-    On the model grid both groups meet the budget, each with its own k; the job conditions every run
-    to its one dx and solves each on its own group's model grid."""
+    On the model grid both groups meet the budget, each with its own k; each run is solved on its own
+    readings and its own group's model grid."""
     folder, _ = mixed
     out = tmp_path / "budget"
     with warnings.catch_warnings():
@@ -182,13 +181,12 @@ def test_each_run_carries_its_own_groups_error_estimates(mixed, tmp_path: Path) 
     assert summary.failed_on_record == 0
     plan = json.loads((out / "parameters.json").read_text())["plan"]
     assert plan["within_budget"] is True and all(g["within_budget"] for g in plan["group_errors"].values())
-    finest = min(g["spacing"] / g["refine"] for g in plan["group_errors"].values())
-    assert plan["dx"] / plan["refine"] <= finest * (1 + 1e-9) and plan["refine"] > 1
     runs = pl.read_parquet(out / "runs.parquet")
-    model_dx = {g["spacing"]: g["model_dx"] for g in plan["group_errors"].values()}
+    groups = {g["spacing"]: g for g in plan["group_errors"].values()}
     for run in runs.iter_rows(named=True):
-        assert run["refine"] == int(np.ceil(plan["dx"] / model_dx[float(f"{run['file_dx']:.2g}")] - 1e-9))
-    assert max(runs["refine"]) == plan["refine"]
+        group = groups[float(f"{run['file_dx']:.2g}")]
+        assert run["refine"] == group["refine"] > 1 and run["tol_used"] == group["tol"]
+        assert run["dx_used"] == run["file_dx"] and run["model_dx"] == pytest.approx(run["file_dx"] / group["refine"])
     assert run_estimates_are_their_groups(out), "every run got the largest estimate of any group"
 
 
@@ -202,7 +200,7 @@ def test_a_group_that_misses_the_budget_is_warned_and_its_runs_say_so(mixed, tmp
         summary = process(folder / "manifest.csv", out, dataclasses.replace(OPTIONS, refine=1), quiet=True)
     assert summary.failed_on_record == 0
     plan = json.loads((out / "parameters.json").read_text())["plan"]
-    assert plan["refine"] == 1 and plan["within_budget"] is False
+    assert plan["within_budget"] is False
     assert {g["spacing"]: g["within_budget"] for g in plan["group_errors"].values()}[0.5e-3] is False
     assert {g["refine"] for g in plan["group_errors"].values()} == {1}
     runs = pl.read_parquet(out / "runs.parquet")
@@ -229,18 +227,14 @@ def test_the_pilot_skips_runs_the_job_refuses_for_their_units(mixed, tmp_path: P
     assert piloted == ["fine"], plan["groups"]
 
 
-def test_an_upsampled_file_reports_only_the_bands_its_own_sampling_resolves(mixed) -> None:
-    """The 0.5 mm file, solved at the job's 0.25 mm, keeps its rows below 2.5 x 0.5 mm but does not
-    report them, saying why; the 0.25 mm file of the same road reports them."""
+def test_a_coarser_file_reports_only_the_bands_its_own_sampling_resolves(mixed) -> None:
+    """The 0.5 mm file, solved on its own readings, reports no band below 2.5 x 0.5 mm (ISO
+    13473-4's 2.5 points per centre wavelength); the 0.25 mm file of the same road reports them."""
     _, out = mixed
     bands = pl.read_parquet(out / "bands.parquet").filter(pl.col("segment") == 0)
     fine = bands.filter(pl.col("run_id") == "fine").sort("band")
     coarse = bands.filter(pl.col("run_id") == "coarse").sort("band")
-    assert fine["band"].to_list() == coarse["band"].to_list()
-    # Independent of the code under test: ISO 13473-4's 2.5 points per centre wavelength at 0.5 mm.
-    unresolved = (coarse["centre_wavelength"] < 2.5 * 0.5e-3 * (1 - 1e-9)) & fine["reported"]
-    assert unresolved.sum() >= 2
-    assert not coarse.filter(unresolved)["reported"].any()
-    assert all("sampled at 0.5 mm" in r for r in coarse.filter(unresolved)["reason"])
-    assert coarse.filter(~unresolved)["reported"].to_list() == fine.filter(~unresolved)["reported"].to_list()
-    assert coarse.filter(unresolved)["texture_level"].is_not_null().all()   # kept, not dropped
+    # Independent of the code under test: ISO 13473-4's 2.5 points per centre wavelength.
+    assert not coarse.filter(pl.col("centre_wavelength") < 2.5 * 0.5e-3 * (1 - 1e-9))["reported"].any()
+    assert fine.filter((pl.col("centre_wavelength") < 2.5 * 0.5e-3 * (1 - 1e-9))
+                       & (pl.col("centre_wavelength") >= 2.5 * 0.25e-3))["reported"].sum() >= 2

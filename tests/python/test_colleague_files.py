@@ -181,10 +181,12 @@ def test_the_manifest_names_the_format_each_file_was_read_as(tmp_path: Path, cap
     assert roadtex.read_profile(survey / "b_station.parquet").metadata["format"] == "captif"
 
 
-def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    """A colleague's file at 1 mm among 0.25 mm runs is upsampled to 0.25 mm (the job's one
-    interval), interpolated linearly between its readings: its contact differs from the same road's fine file. The command
-    line says so, and its advice (--dx at the coarsest interval) makes the two files agree."""
+def test_a_coarser_file_among_finer_runs_is_solved_on_its_own_readings(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture) -> None:
+    """A colleague's file at 1 mm among 0.25 mm runs is solved on its own readings (never upsampled
+    to the finer runs' interval, which made its contact that of straight chords between readings),
+    and gets the tables it gets alone; ``--dx`` at its interval averages the fine file down to it,
+    and the two files of one road then agree."""
     from roadtex.cli import main
 
     road = roadtex.synthetic_pavement("dense_asphalt", length=1.0, dx=0.25e-3, seed=4)
@@ -198,27 +200,27 @@ def test_the_command_line_says_when_a_coarser_file_was_upsampled(tmp_path: Path,
     (survey / "coarse.csv").write_text("distance (mm),height (mm)\n" + coarse)
     assert main(["manifest", str(survey), "--out", str(tmp_path / "manifest.csv")]) == 0
 
-    def contact(out: str, *extra: str) -> tuple[dict[str, float], str]:
+    def contact(manifest: Path, out: str, *extra: str) -> pl.DataFrame:
         capsys.readouterr()
-        code = main(["process", str(tmp_path / "manifest.csv"), "--out", str(tmp_path / out), "--moduli", "2",
+        code = main(["process", str(manifest), "--out", str(tmp_path / out), "--moduli", "2",
                      "--error-budget", "off", "--quiet", *extra])
         assert code == 0
-        segments = pl.read_parquet(tmp_path / out / "segments.parquet")
-        means = segments.group_by("run_id").agg(pl.col("contact_fraction").mean())
         said = capsys.readouterr()
         # the tables it lists are aligned in one column, surface_examples included
         listed = [line for line in said.out.splitlines() if line.startswith("  ")]
         assert len(listed) >= 8 and len({line.index(str(tmp_path)) for line in listed}) == 1, said.out
-        return dict(zip(means["run_id"], means["contact_fraction"])), said.err
+        return pl.read_parquet(tmp_path / out / "segments.parquet")
 
-    upsampled, said = contact("finest")
-    assert "1 run(s) were sampled more coarsely than the job's interval of 0.25 mm" in said
-    assert "coarse (1 mm)" in said and "--dx" in said
-    same_grid, said = contact("coarsest", "--dx", "1e-3")
-    assert "upsampled" not in said
-    gap_upsampled = abs(upsampled["coarse"] - upsampled["fine"])
-    gap_same_grid = abs(same_grid["coarse"] - same_grid["fine"])
-    assert gap_upsampled > 0.015 and gap_same_grid < gap_upsampled / 5, (upsampled, same_grid)
+    together = contact(tmp_path / "manifest.csv", "both")
+    runs = pl.read_parquet(tmp_path / "both" / "runs.parquet")
+    assert dict(runs.select("run_id", "dx_used").iter_rows()) == pytest.approx({"fine": 0.25e-3, "coarse": 1e-3})
+    manifest = pl.read_csv(tmp_path / "manifest.csv")
+    manifest.filter(pl.col("run_id") == "coarse").write_csv(tmp_path / "coarse_only.csv")
+    alone = contact(tmp_path / "coarse_only.csv", "alone")
+    assert together.filter(pl.col("run_id") == "coarse").equals(alone)
+    same_grid = contact(tmp_path / "manifest.csv", "coarsest", "--dx", "1e-3")
+    means = dict(same_grid.group_by("run_id").agg(pl.col("contact_fraction").mean()).iter_rows())
+    assert abs(means["coarse"] - means["fine"]) < 0.01, means
 
 
 def test_roadtex_manifest_names_the_files_it_cannot_read_and_why(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
-from roadtex.archive import plan as plan_module
+from roadtex.archive import planning as plan_module
 from roadtex.errors import ErrorBudgetWarning
 from roadtex.profiles import write_profile
 from roadtex.profiles.pavements import synthetic_pavement
@@ -81,7 +81,9 @@ def test_a_pilot_that_fails_is_recorded_and_warned_about(tmp_path: Path, monkeyp
     with pytest.warns(ErrorBudgetWarning, match="laser / dense_asphalt.*deliberate pilot failure 17"):
         process(mixed_manifest(tmp_path), tmp_path / "out", OPTIONS, quiet=True)
     plan = json.loads((tmp_path / "out" / "parameters.json").read_text())["plan"]
-    assert plan["failed_pilots"] == {"laser / dense_asphalt": "ValueError: deliberate pilot failure 17"}
+    assert plan["failed_pilots"] == {"laser / dense_asphalt @ 0.5 mm": "ValueError: deliberate pilot failure 17"}
+    line = pl.read_parquet(tmp_path / "out" / "runs.parquet").filter(pl.col("run_id") == "line").row(0, named=True)
+    assert line["worst_level_error_db"] is None and line["error_source"] == "no pilot could run: no error estimate"
 
 
 def test_a_sampled_run_that_cannot_be_read_is_recorded_and_replaced(tmp_path: Path) -> None:
@@ -98,7 +100,7 @@ def test_a_sampled_run_that_cannot_be_read_is_recorded_and_replaced(tmp_path: Pa
     plan = json.loads((out / "parameters.json").read_text())["plan"]
     assert set(plan["unread_runs"]) == {"r0"}
     assert plan["unread_runs"]["r0"].startswith("ProfileFormatError: r0.csv:")
-    assert sorted(plan["groups"]["laser / dense_asphalt"]) == ["r1", "r2", "r3"]
+    assert sorted(plan["groups"]["laser / dense_asphalt @ 0.5 mm"]) == ["r1", "r2", "r3"]
 
 
 def test_an_unreadable_pick_is_replaced_by_its_own_neighbour(tmp_path: Path) -> None:

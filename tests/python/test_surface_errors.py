@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
-from roadtex.archive.job import surface_estimates, with_plan
+from roadtex.archive.combine import surface_estimates, with_plan
 from roadtex.archive.surface_run import error_table, line_rows
 from roadtex.budget import areal
 from roadtex.errors import ErrorBudgetWarning
@@ -260,13 +260,15 @@ def test_each_models_estimates_reach_its_own_rows_and_only_budget_bands_count(tm
                          "level_error_db": [None] * 6}, schema_overrides={"level_error_db": pl.Float64})
     empty = (pl.DataFrame(schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
                                   "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean}),
-             pl.DataFrame(schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean}))
-    bands = with_plan(rows.lazy(), "bands", None, empty, ["s"], own).collect()
+             pl.DataFrame(schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean,
+                                  "line_speedup": pl.Float64, "error_source": pl.String}))
+    bands = with_plan(rows.lazy(), "bands", empty, ["s"], own).collect()
     assert bands["level_error_db"].to_list() == [1.0, 2.0, 50.0, 10.0, 20.0, 500.0]
     run = pl.DataFrame({"run_id": ["s"]})
-    runs = with_plan(run.lazy(), "runs", None, empty, ["s"], own).collect().row(0, named=True)
+    runs = with_plan(run.lazy(), "runs", empty, ["s"], own).collect().row(0, named=True)
     assert runs["worst_level_error_db"] == 20.0 and runs["within_budget"] is False   # not 500: band 30 is out
     assert runs["speedup"] == 1.5 and runs["time_saved_fraction"] == pytest.approx(1 / 3)
+    assert runs["error_source"] == "its own areal pilot"
 
 
 def test_a_windows_scaled_estimate_still_lets_the_loosest_tolerance_through() -> None:

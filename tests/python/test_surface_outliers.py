@@ -87,7 +87,8 @@ def test_a_clean_surface_is_conditioned_exactly_as_before(tmp_path: Path, monkey
 
     heights = surface_heights(seed=9)
     raw = Surface.from_heights(heights, DX)
-    conditioned, summary = condition_surface(raw, OPTIONS.spike_alpha)
+    conditioned, summary, missing = condition_surface(raw, OPTIONS.spike_alpha)
+    assert not missing.any()   # a clean surface: every sample read
     # the pipeline before outlier removal, from the surface's public steps
     before = raw.remove_spikes(OPTIONS.spike_alpha).fill_dropouts().remove_plane()
     assert np.array_equal(conditioned.heights, before.heights)
@@ -95,7 +96,7 @@ def test_a_clean_surface_is_conditioned_exactly_as_before(tmp_path: Path, monkey
     run = save(tmp_path, heights)
     now = compute_surface_run(run, OPTIONS)
     monkeypatch.setattr(surface_run, "condition_surface",
-                        lambda surface, alpha: (surface.remove_spikes(alpha).fill_dropouts().remove_plane(), summary))
+                        lambda surface, alpha: (surface.remove_spikes(alpha).fill_dropouts().remove_plane(), summary, missing))
     old = compute_surface_run(run, OPTIONS)
     for name in ("segments", "bands", "surface_example"):
         assert now[name].equals(old[name]), name

@@ -45,13 +45,13 @@ def test_manifest_skips_a_folder_holding_a_jobs_outputs(tmp_path: Path, capsys) 
 
 SLOW_JOB = """
 import sys, time
-import roadtex.archive.job as job
+import roadtex.archive.worker as worker
 from roadtex.cli import main
-compute = job.compute_run
+compute = worker.compute_run
 def slow(*args, **kwargs):   # a long run, as a real one would be: the interrupt lands mid-job
     time.sleep(1.0)
     return compute(*args, **kwargs)
-job.compute_run = slow
+worker.compute_run = slow
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -20,6 +20,7 @@ from roadtex.models.contact import contact_many
 from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
+from roadtex.profiles.coverage import missing_shares, too_few_readings
 from roadtex.profiles.mpd import mpd as mean_profile_depth
 from roadtex.profiles.plausibility import (
     PLAUSIBLE_MAX_DX,
@@ -94,7 +95,11 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     # its own readings (resampling at its own interval is the identity), or averaged down
     coarser = entry.data_dx if entry.data_dx is not None and entry.data_dx > raw.dx else None
-    conditioned = run_stage("condition", lambda: cleaned.finished(dx=coarser))
+    # Profile.finished's steps, with the samples that had no reading kept apart: a segment mostly filled
+    # has no level (roadtex.profiles.coverage)
+    resampled = run_stage("condition", lambda: cleaned.resample(cleaned.dx if coarser is None else coarser))
+    conditioned = run_stage("condition", lambda: resampled.fill_dropouts().detrend("linear"))
+    missing = np.isnan(resampled.heights)
     depth = run_stage("mpd", lambda: mean_profile_depth(raw, spike_alpha=options.mpd_spike_alpha))
     if conditioned.length < options.segment_length:
         trimmed = f", {cleaning.trimmed_length:.3g} m of reference plates trimmed" if cleaning.trimmed_length > 0 else ""
@@ -104,6 +109,7 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
             f"of at most {conditioned.length:.4g} m, in a job of its own if the other runs keep theirs"))
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
+    shares = missing_shares(missing, segments.start_indices, n_points)
     refine, tol = int(entry.refine or 1), float(entry.tol or DEFAULT_TOL)
     if n_points * refine > MAX_SEGMENT_MODEL_POINTS:
         raise RunFailure("segment", InvalidInputError(
@@ -172,12 +178,14 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
             run, "line", seg_index, None, moduli[mod_index], segments.starts[seg_index], segments.length,
             mpd_per_segment[seg_index], heights.std(axis=1)[seg_index - first],
             {key: values.ravel() for key, values in batch.measures().items()}, batch.residual.ravel(),
-            batch.iterations.ravel(), batch.converged.ravel()))
+            batch.iterations.ravel(), batch.converged.ravel(), shares[seg_index]))
         band_frames.append(band_frame(run["run_id"], "line", seg_index, None, moduli[mod_index], bands, frequency,
-                                      texture.levels[seg_index], enveloped, pressure))
+                                      texture.levels[seg_index], enveloped, pressure, shares[seg_index]))
 
+    measured = int((~too_few_readings(shares)).sum())   # the segments with a level: what a run mean averages
     statement, sampling_dx, resolved_to = run_stage("spectra", lambda: run_statement(
-        raw.dx, dx, conditioned.length, options.segment_length, n_segments, moduli, options.mean_pressure,
+        raw.dx, dx, conditioned.length * measured / n_segments, options.segment_length, max(measured, 1), moduli,
+        options.mean_pressure,
         options.band_kind, options.band_method, dict(bands.select("band", "centre_wavelength").iter_rows()),
         correct=options.sampling_correction))
     tables: dict[str, Any] = {
@@ -185,7 +193,7 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
         "example": example,
         "segments": pl.concat(segment_frames),
         "bands": defined_levels(with_sampling(pl.concat(band_frames), statement)),
-        "run": run_table(run, raw, conditioned, cleaning, depth, n_segments, tol, refine).with_columns(
+        "run": run_row(run, raw, conditioned, cleaning, depth, n_segments, tol, refine).with_columns(
             pl.lit(sampling_dx, dtype=pl.Float64).alias("sampling_dx"),
             pl.lit(resolved_to, dtype=pl.Float64).alias("contact_resolved_to")),
     }
@@ -265,7 +273,7 @@ def clean_quietly(raw: Profile, spike_alpha: float | None, name: str) -> tuple[P
     return clean(raw, spike_alpha=spike_alpha, name=name, warn=False)
 
 
-def run_table(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
+def run_row(run: dict[str, Any], raw: Profile, conditioned: Profile, cleaning: CleaningSummary, depth: Any,
               n_segments: int, tol: float, refine: int) -> pl.DataFrame:
     """The run's row of runs.parquet: what was read, removed and solved, and its MPD with validity
     (the plan's columns are added when the job combines the runs)."""

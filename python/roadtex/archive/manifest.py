@@ -345,7 +345,7 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
         row: dict[str, Any] = {"path": str(path.resolve()), "run_id": unique_run_id(path, root, rows)}
         # a 3-D surface (OpenCRG, 2-D .npy, a table of x, y, z columns) is a surface run, whether
         # or not it reads as it is (a .npy without dx): the job then records why it fails
-        surface = path.suffix.lower() in (".crg", ".x3p") or is_surface_file(path)
+        surface = is_surface_file(path)   # OpenCRG and X3P by their suffix, the others by their content
         if surface:
             row["format"] = "surface"
         if read_metadata:

@@ -157,7 +157,8 @@ def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOpt
         by_dx.setdefault(spacing_key(profile.dx), []).append((run, profile))
     pilots, failed, studies = [], {}, []
     for spacing, sample in by_dx.items():
-        label = name if len(by_dx) == 1 else f"{name} @ {spacing * 1e3:g} mm"
+        # the spacing always named: a run's rows say the same in any archive (alone, or among other samplings)
+        label = f"{name} @ {spacing * 1e3:.3g} mm"
         try:
             # the pilot's runs were judged plausible by readable(): its solves and spectra do not judge them again
             with judged_once():

@@ -59,6 +59,10 @@ SEGMENT_COLUMNS: Columns = {
     **_METADATA,
     "mpd": (pl.Float64(), "m"),                   # mean of the valid ISO 13473-1 baselines inside; null if none
     "rms_height": (pl.Float64(), "m"),            # of the segment as solved
+    "missing_fraction": (pl.Float64(), "1"),      # share of its samples with no reading (drop-outs, spikes and
+                                                  # outliers removed), filled before solving
+    "no_level_reason": (pl.String(), None),       # why it has no level (over 10 % missing: roadtex.profiles.coverage);
+                                                  # its contact measures and band levels are then null; null: it has
     "contact_fraction": (pl.Float64(), "1"),      # share of the segment length in contact
     "mean_penetration": (pl.Float64(), "m"),      # mean of (highest point - rubber surface)
     "max_penetration": (pl.Float64(), "m"),       # deepest the rubber reaches below the highest point
@@ -78,7 +82,8 @@ BAND_COLUMNS: Columns = {
     "label": (pl.String(), None),                 # nominal centre wavelength as acousticians write it (mm)
     "centre_wavelength": (pl.Float64(), "m"),     # exact
     "frequency": (pl.Float64(), "Hz"),            # at the run's speed (f = V / wavelength); null without a speed
-    "reported": (pl.Boolean(), None),             # within the standard's limits for this dx and segment length
+    "reported": (pl.Boolean(), None),             # within the standard's limits for this dx and segment length, and
+                                                  # its segment measured (levels null where segments.no_level_reason)
     "reason": (pl.String(), None),                # why a band is not reported (null when it is)
     "texture_level": (pl.Float64(), "dB re 1 um"),     # original profile segment
     "enveloped_level": (pl.Float64(), "dB re 1 um"),   # enveloped profile

@@ -83,13 +83,22 @@ MIN_SURFACE_ROWS = 4
 #: time, so memory does not grow with the run's length (as CHUNK_SEGMENTS does for line runs).
 CHUNK_POINTS = 4_000_000
 
-def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, CleaningSummary]:
+def condition_surface(raw: Surface, spike_alpha: float | None) -> tuple[Surface, CleaningSummary, np.ndarray]:
     """Gross outliers (drop-out codes) and spikes flagged as the line runs flag them
     (:func:`roadtex.surfaces.conditioning.clean`), drop-outs filled, the least-squares plane
-    removed; returns the surface and what cleaning removed (with its notes beyond the line runs'
-    WARN_* thresholds)."""
+    removed; returns the surface, what cleaning removed (with its notes beyond the line runs'
+    WARN_* thresholds) and where it had no reading (True: filled; roadtex.profiles.coverage)."""
     cleaned, summary = clean_surface(raw, spike_alpha)
-    return cleaned.fill_dropouts().remove_plane(), summary
+    return cleaned.fill_dropouts().remove_plane(), summary, np.isnan(cleaned.heights)
+
+
+def tile_coverage(missing: np.ndarray, tiles: Any, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The share of samples without a reading (``missing``, the surface's mask) of each tile
+    (tiles,) and of each analysed row ``rows`` within each tile (tiles, rows)."""
+    _, n_y, n_x = tiles.heights.shape
+    whole = np.array([missing[r:r + n_y, c:c + n_x].mean() for r, c in zip(tiles.row_starts, tiles.column_starts)])
+    lines = np.array([[missing[row, c:c + n_x].mean() for row in rows] for c in tiles.column_starts])
+    return whole, lines.reshape(len(whole), len(rows))
 
 
 def line_rows(rows: int) -> np.ndarray:
@@ -133,7 +142,7 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
         raise RunFailure("read", InvalidInputError(f"{name}: no valid reading"))
     notes = plausibility_notes(finite[None, :], raw.dx, name, raw.metadata, options, given_dx=reader.get("dx"),
                                row="surface")
-    surface, cleaning = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
+    surface, cleaning, missing = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
     if surface.shape[0] < MIN_SURFACE_ROWS:  # refused before any solve, naming the file
         raise RunFailure("read", InvalidInputError(
             f"{name}: {surface.shape[0]} row(s) across the road ({surface.width * 1e3:.3g} mm wide): the areal "
@@ -142,6 +151,7 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
                                                        (options.segment_overlap, 0.0)))
     rows = line_rows(surface.shape[0])
     lines = run_stage("segment", lambda: surface.lines(rows=rows.tolist()))
+    coverage = tile_coverage(missing, tiles, rows)
     depths = [run_stage("mpd", lambda p=p: mean_profile_depth(p, spike_alpha=options.mpd_spike_alpha)) for p in lines]
     moduli = np.asarray(options.youngs_moduli, dtype=np.float64)
     n_tiles, n_y, n_x = tiles.heights.shape
@@ -186,7 +196,7 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
     for first in range(0, n_tiles, chunk):
         part = np.arange(first, min(first + chunk, n_tiles))
         frames = solve_chunk(run, options, tol, tiles, part, lines, rows, moduli, bands, frequency, line_mpd,
-                             starts, threads, refine)
+                             starts, threads, refine, coverage)
         for table in ("bands", "segments"):
             for frame in frames[table]:
                 by_model[table].setdefault(frame["model"][0], []).append(frame)
@@ -211,10 +221,12 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
 def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, tiles: Any, part: np.ndarray,
                 lines: list[Any],
                 rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame, frequency: np.ndarray,
-                line_mpd: np.ndarray, starts: np.ndarray, threads: int | None, refine: int = 1) -> dict[str, Any]:
+                line_mpd: np.ndarray, starts: np.ndarray, threads: int | None, refine: int,
+                coverage: tuple[np.ndarray, np.ndarray]) -> dict[str, Any]:
     """The tiles ``part`` of a surface run solved with both models at ``tol`` on the model grid
     ``refine`` times finer each way: their band and segment rows (tile numbers as in the whole
-    run), and the report's example when the middle tile is among them."""
+    run; ``coverage``: :func:`tile_coverage`), and the report's example when the middle tile is
+    among them."""
     dx, dy = tiles.dx, tiles.dy
     n_x = tiles.heights.shape[2]
     band_frames: list[pl.DataFrame] = []
@@ -249,6 +261,7 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
                                                          method=method, reference=reference))
 
     texture_levels = texture.levels.reshape(n_tiles, len(rows), 1, -1)
+    tile_missing, line_missing = coverage[0][part], coverage[1][part]
     n_bands = bands.height
     band_frames = []
     for model, env, pres in (("line", line_env, line_p),
@@ -256,11 +269,13 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
         # env, pres: [tile, line, modulus, x]
         env_levels = levels(env).reshape(n_tiles, len(rows), moduli.size, n_bands)
         p_levels = levels(pres, REFERENCE_PRESSURE).reshape(n_tiles, len(rows), moduli.size, n_bands)
-        tile_i, line_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), rows, np.arange(moduli.size),
-                                                                indexing="ij"))
+        tile_i, line_k, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(len(rows)),
+                                                                np.arange(moduli.size), indexing="ij"))
+        # a line model's row has a level where its own stretch was measured, an areal row where its tile was
+        missing = line_missing[tile_i, line_k] if model == "line" else tile_missing[tile_i]
         # the sampling calibration is of line runs' levels (roadtex.budget.sampling): none stated here
-        band_frames.append(band_frame(run["run_id"], model, part[tile_i], line_i, moduli[mod_i], bands, frequency,
-                                      np.broadcast_to(texture_levels, env_levels.shape), env_levels, p_levels))
+        band_frames.append(band_frame(run["run_id"], model, part[tile_i], rows[line_k], moduli[mod_i], bands, frequency,
+                                      np.broadcast_to(texture_levels, env_levels.shape), env_levels, p_levels, missing))
 
     line_mpd = line_mpd[part]
     segment_frames = []
@@ -283,13 +298,13 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
                                         line_heights.std(axis=-1)[tile_i, line_i],
                                         {k: v[tile_i, line_i, mod_i] for k, v in line_measures.items()},
                                         line_res[tile_i, line_i, mod_i], line_iter[tile_i, line_i, mod_i],
-                                        line_conv[tile_i, line_i, mod_i]))
+                                        line_conv[tile_i, line_i, mod_i], line_missing[tile_i, line_i]))
     tile_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(moduli.size), indexing="ij"))
     segment_frames.append(segment_frame(run, "areal", part[tile_i], None, moduli[mod_i], starts[part[tile_i]], tiles.length,
                                         areal_mpd[tile_i], heights.reshape(n_tiles, -1).std(axis=1)[tile_i],
                                         {k: v[tile_i, mod_i] for k, v in areal_measures.items()},
                                         areal.residual[tile_i, mod_i], areal.iterations[tile_i, mod_i],
-                                        areal.converged[tile_i, mod_i]))
+                                        areal.converged[tile_i, mod_i], tile_missing[tile_i]))
     middle = len(tiles) // 2
     example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli,
                                refine)

@@ -96,7 +96,10 @@ WINDOW_FACTOR = 1.5
 AREAL_PILOT_POINTS = 2 ** 19
 
 #: The model grid refinements (k along = k across) the pilot tries, cheapest first: the run's k is
-#: one of them (the finest is the converged answer's stand-in, see the module).
+#: one of them (the finest is the converged answer's stand-in, see the module). Not the line pilot's
+#: ladder (roadtex.budget.study.REFINE_LADDER, 1 to 32 with 3, 6, 12, 24 between the powers of two):
+#: a surface's model grid costs k^2 points, so k = 16 on a 1 mm tile of 0.5 m x 40 mm is already
+#: 5.1 million points, above MAX_MODEL_POINTS; and the surface pilot extrapolates over doublings of k.
 REFINE_LADDER = (1, 2, 4, 8)
 
 #: Largest model grid of one tile the pilot may choose (points, ``ny nx k^2``): the job solves a

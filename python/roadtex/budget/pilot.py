@@ -97,7 +97,7 @@ class BudgetChoice:
 Setting = tuple[float, int, float]   # (dx, refine, tol)
 
 
-def summarise(rows: list[dict]) -> dict[Setting, tuple[float, float, float]]:
+def setting_summary(rows: list[dict]) -> dict[Setting, tuple[float, float, float]]:
     """(dx, refine, tol) -> (worst budget-band error dB, work per metre, seconds per metre). Settings
     are compared by work (iterations x N log2 N), which the machine's load does not change."""
     out: dict[Setting, tuple[float, float, float]] = {}
@@ -227,7 +227,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
     forced = forced_dx_f is not None or forced_tol_f is not None or forced_refine_k is not None
     # only the candidate settings may be chosen: the reference is there for comparison only
     allowed = {(dxs_used(rows, dx), k) for dx, k in settings}
-    summary = {key: v for key, v in summarise(rows).items()
+    summary = {key: v for key, v in setting_summary(rows).items()
                if key[:2] in allowed and (forced_tol_f is None or key[2] == forced_tol_f)}
     within = {k: v for k, v in summary.items() if v[0] <= budget}
     if not within:

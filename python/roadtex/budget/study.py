@@ -57,6 +57,7 @@ from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
 from roadtex.models.grid import Interpolant, refine_periodic
 from roadtex.profiles.conditioning import clean
+from roadtex.profiles.coverage import MAX_MISSING_SHARE, missing_shares, too_few_readings
 from roadtex.profiles.profile import Profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
 from roadtex.spectra.levels import Method, band_levels
@@ -87,7 +88,8 @@ MAX_REFINE = 32
 #: orders: 1.3 to 2.5 between successive halvings on CAPTIF averaged to 1 mm).
 MAX_ORDER = 1.5
 
-#: Candidate refinements of the data's grid, cheapest first (5-smooth: FFT-friendly when N is).
+#: Candidate refinements of the data's grid, cheapest first (5-smooth: FFT-friendly when N is). The
+#: surface pilot has its own, shorter one (roadtex.budget.areal.REFINE_LADDER: a surface costs k^2).
 REFINE_LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
 
 #: Safety factor on the pilot's extrapolation from its segments to the whole run. Level errors
@@ -163,17 +165,30 @@ def cleaned_profiles(profiles: list[Profile], spike_alpha: float | None) -> list
 
 def segments_of(cleaned: list[Profile], dx: float | None,
                 segment_length: float) -> tuple[np.ndarray, list[tuple[int, float]], float]:
-    """Every segment of every cleaned profile, finished at ``dx`` (None: the file's): heights,
-    (profile, start), dx."""
+    """Every segment with a level of every cleaned profile, finished at ``dx`` (None: the file's):
+    heights, (profile, start), dx. A segment mostly filled (drop-outs: more than
+    :data:`~roadtex.profiles.coverage.MAX_MISSING_SHARE` of its samples without a reading) has no
+    level in the job, so the pilot never measures its errors on one.
+
+    Raises:
+        InvalidInputError: no segment of any profile has enough readings.
+    """
     heights, starts, used = [], [], 0.0
     for index, profile in enumerate(cleaned):
-        segments = profile.finished(dx=dx).segments(segment_length)
-        heights.append(segments.heights)
-        starts.extend((index, float(s)) for s in segments.starts)
+        # Profile.finished's steps, keeping apart the samples that had no reading
+        resampled = profile.resample(profile.dx if dx is None else dx)
+        segments = resampled.fill_dropouts().detrend("linear").segments(segment_length)
+        shares = missing_shares(np.isnan(resampled.heights), segments.start_indices, segments.heights.shape[1])
+        keep = ~too_few_readings(shares)
+        heights.append(segments.heights[keep])
+        starts.extend((index, float(s)) for s in segments.starts[keep])
         used = segments.dx
     lengths = {h.shape[1] for h in heights}
     if len(lengths) != 1:
         raise InvalidInputError("the profiles of a group give segments of different point counts")
+    if not starts:
+        raise InvalidInputError(f"no segment of {segment_length:g} m of the pilot's runs has enough readings: each "
+                                f"has more than {MAX_MISSING_SHARE:.0%} of its samples missing (drop-outs)")
     return np.vstack(heights), starts, used
 
 

@@ -83,7 +83,7 @@ def mark_over_budget(ax: Any, positions: list[float]) -> None:
                    label=OVER_BUDGET_LABEL if index == 0 else None, gid="over_budget")
 
 
-def energetic_mean(levels: pl.Expr) -> pl.Expr:
+def power_mean_db(levels: pl.Expr) -> pl.Expr:
     """Mean of levels in power (dB): 10 lg(mean 10^(L/10))."""
     return 10.0 * (10.0 ** (levels / 10.0)).mean().log10()
 

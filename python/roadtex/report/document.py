@@ -48,11 +48,11 @@ from roadtex.report.data import (
     PRESSURE_DB,
     TEXTURE_DB,
     Results,
-    energetic_mean,
     load_examples,
     load_results,
     megapascals,
     plain,
+    power_mean_db,
     pyplot,
     tolerance,
 )
@@ -213,7 +213,7 @@ def run_table(results: Results) -> pl.DataFrame:
             "run_id", (pl.col("contact_fraction") * 100).alias(f"contact % ({modulus_column(e)})"))
         wide = wide.join(part, on="run_id", how="left")
     levels = (results.bands.filter(pl.col("youngs_modulus") == results.moduli[0])
-              .group_by("run_id").agg(energetic_mean(pl.col("texture_level")).alias(f"mean texture band level ({TEXTURE_DB})")))
+              .group_by("run_id").agg(power_mean_db(pl.col("texture_level")).alias(f"mean texture band level ({TEXTURE_DB})")))
     return wide.join(levels, on="run_id", how="left")
 
 

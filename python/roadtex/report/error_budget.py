@@ -86,7 +86,6 @@ def pilot_state(results: Results) -> str | None:
         return ("No pilot was recorded: this results folder has no pilot.parquet (written by a roadtex "
                 "before the error budget), so no candidate setting can be shown.")
     if results.pilot.height == 0:
-        plan = results.plan
         budget = (results.parameters.get("options") or {}).get("error_budget_db")
         if budget is not None and results.surface_bands is not None:
             # a budget, but no line run for the job's pilot: the surface runs have their own

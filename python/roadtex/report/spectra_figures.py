@@ -15,11 +15,11 @@ from roadtex.report.data import (
     PRESSURE_DB,
     TEXTURE_DB,
     Results,
-    energetic_mean,
     legend_outside,
     mark_over_budget,
     modulus_label,
     over_budget_bands,
+    power_mean_db,
 )
 from roadtex.spectra.analysis import band_regressions
 from roadtex.spectra.bands import OCTAVE_BANDS, nominal_label
@@ -59,7 +59,7 @@ def mean_spectra(results: Results, level: str) -> pl.DataFrame:
     bands = results.bands.join(results.run_groups(), on="run_id", how="left")
     return (bands.filter(pl.col(level).is_finite())
             .group_by(group, "youngs_modulus", "band", maintain_order=True)
-            .agg(pl.col("label").first(), energetic_mean(pl.col(level)).alias(level))
+            .agg(pl.col("label").first(), power_mean_db(pl.col(level)).alias(level))
             .sort(group, "youngs_modulus", "band"))
 
 
@@ -140,7 +140,7 @@ def octave_table(results: Results) -> pl.DataFrame:
               .otherwise(None).alias(c) for c in LEVELS])
         bands = complete.filter(pl.col("parts") == 3).drop("parts").rename({"octave": "band"})
     per_run = (bands.group_by("run_id", "youngs_modulus", "band")
-               .agg(*[energetic_mean(pl.col(c)).alias(c) for c in LEVELS])
+               .agg(*[power_mean_db(pl.col(c)).alias(c) for c in LEVELS])
                .with_columns(pl.col("band").map_elements(nominal_label, return_dtype=pl.String).alias("label"))
                .sort("band", "youngs_modulus", "run_id"))
     return per_run

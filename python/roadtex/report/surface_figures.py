@@ -30,7 +30,7 @@ def surface_groups(results: Results) -> pl.DataFrame:
     return runs.join(groups, on="run_id", how="left").with_columns(pl.col("group").fill_null(pl.col("run_id")))
 
 
-def level_differences(results: Results) -> pl.DataFrame:
+def line_minus_areal(results: Results) -> pl.DataFrame:
     """Per pavement, E and band: mean over tiles and lines of (line − areal) enveloped level (dB)."""
     assert results.surface_bands is not None
     bands = results.surface_bands.filter(pl.col("enveloped_level").is_not_null())
@@ -46,7 +46,7 @@ def level_differences(results: Results) -> pl.DataFrame:
 def agreement_table(results: Results) -> pl.DataFrame:
     """Per pavement and E: the bands where |line − areal| mean enveloped level <= :data:`AGREEMENT_DB`,
     and those where it is not (band labels, centre wavelength in mm)."""
-    diff = level_differences(results)
+    diff = line_minus_areal(results)
     within = diff["difference_db"].abs() <= AGREEMENT_DB
     diff = diff.with_columns(within.alias("within"))
     rows = []
@@ -104,7 +104,7 @@ def fig_surface_tiles(plt, results: Results):
 
 def fig_line_vs_areal(plt, results: Results):
     """Line − areal enveloped level (dB) per band, one panel per pavement, one curve per E."""
-    diff = level_differences(results)
+    diff = line_minus_areal(results)
     if diff.height == 0:
         return None
     groups = diff["group"].unique(maintain_order=True).to_list()
