@@ -160,3 +160,20 @@ def test_what_changes_a_pilot_s_answer_makes_it_again(small_archive, change: str
         patch.setattr(planning, "choose_setting", lambda *a, **k: calls.append(1) or real(*a, **k))
         job(path, out, options)
     assert calls, "the kept pilot was trusted although " + change + " changed"
+
+
+def test_a_run_of_a_sampling_no_pilot_read_says_where_its_errors_come_from(tmp_path: Path) -> None:
+    """Of four runs of one group the pilot reads three (a0, a2, a3), all at 0.5 mm; a1, at 1 mm, is
+    solved on the finest model grid of any group and carries the largest estimate, and says so."""
+    rows = [(f"a{i}", roadtex.write_profile(roadtex.synthetic_pavement("dense_asphalt", 0.6, dx, seed=i),
+                                            tmp_path / f"a{i}.parquet"))
+            for i, dx in enumerate((0.5e-3, 1e-3, 0.5e-3, 0.5e-3))]
+    job(manifest(rows, tmp_path / "m.csv"), tmp_path / "out", SMALL)
+    plan = json.loads((tmp_path / "out" / "parameters.json").read_text())["plan"]
+    assert [sorted(runs) for runs in plan["groups"].values()] == [["a0", "a2", "a3"]]
+    pilot = next(iter(plan["group_errors"].values()))
+    runs = {r["run_id"]: r for r in pl.read_parquet(tmp_path / "out" / "runs.parquet").iter_rows(named=True)}
+    assert runs["a1"]["error_source"].startswith("no pilot of any device / any pavement at 1 mm")
+    assert runs["a1"]["dx_used"] == 1e-3 and runs["a1"]["model_dx"] <= pilot["model_dx"] * (1 + 1e-9)
+    assert runs["a1"]["worst_level_error_db"] == pilot["worst_error_db"]
+    assert runs["a0"]["error_source"] == f"the pilot of its group ({next(iter(plan['group_errors']))})"

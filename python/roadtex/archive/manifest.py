@@ -13,6 +13,7 @@ from typing import Any, Sequence
 
 import polars as pl
 
+from roadtex.archive.options import MAX_SPEED_KMH
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError, RoadtexWarning
@@ -203,6 +204,11 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             bad = indexed.filter(value.is_not_null() & ~(value > 0))
             if bad.height:
                 raise ManifestError(f"{cell(bad['__row__'][0], name)}: must be positive ({unit}), found {bad[name][0]!r}")
+    if "speed_kmh" in table.columns:   # as ProcessingOptions.speed_kmh: no road vehicle goes faster
+        fast = indexed.filter(pl.col("speed_kmh").cast(pl.Float64, strict=False) > MAX_SPEED_KMH)
+        if fast.height:
+            raise ManifestError(f"{cell(fast['__row__'][0], 'speed_kmh')}: {fast['speed_kmh'][0]!r} km/h is faster "
+                                f"than any road vehicle (at most {MAX_SPEED_KMH:g} km/h)")
     if "decimal" in table.columns:
         bad_marks = indexed.filter(pl.col("decimal").is_not_null() & ~pl.col("decimal").is_in([".", ","]))
         if bad_marks.height:

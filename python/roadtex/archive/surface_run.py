@@ -48,6 +48,7 @@ from roadtex.archive.schemas import (
 from roadtex.archive.tables import band_frame, defined_levels, model_levels, segment_frame
 from roadtex.budget.areal import (
     AREAL_PILOT_POINTS,
+    MAX_MODEL_POINTS,
     WINDOW_FACTOR,
     SurfaceErrors,
     pilot_tile_indices,
@@ -149,6 +150,13 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
             f"model needs at least {MIN_SURFACE_ROWS}; a single line is a profile (format omitted)"))
     tiles = run_stage("segment", lambda: surface.tiles(options.segment_length, surface.width,
                                                        (options.segment_overlap, 0.0)))
+    tile_points = tiles.heights.shape[1] * tiles.heights.shape[2]
+    if entry.refine is not None and tile_points * entry.refine ** 2 > MAX_MODEL_POINTS:
+        # a forced k costs k^2 points a tile: refused before any solve (the pilot never chooses such a k)
+        raise RunFailure("segment", InvalidInputError(
+            f"{name}: a model grid {entry.refine} times finer each way would give tiles of "
+            f"{tile_points * entry.refine ** 2:,} points, above {MAX_MODEL_POINTS:,}: use a smaller --refine "
+            "(or none: the error budget's pilot chooses) or shorter segments"))
     rows = line_rows(surface.shape[0])
     lines = run_stage("segment", lambda: surface.lines(rows=rows.tolist()))
     coverage = tile_coverage(missing, tiles, rows)
