@@ -401,6 +401,7 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ProfileFormatError(f"{name}: not a readable OpenCRG file: {message}") from None
     v = np.asarray(grid.v, dtype=np.float64)
+    check_crg_header(name, header, np.asarray(grid.u, dtype=np.float64), v, float(du))
     if v.size > 1:
         steps = np.diff(v)
         if np.ptp(steps) > GRID_TOLERANCE * float(np.mean(steps)):
@@ -417,6 +418,50 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
     # OpenCRG is in metres by definition; a dx given instead of the file's increment is a bare number
     set_distance_unit(metadata, "m (OpenCRG)" if options.get("dx") is None else None)
     return finish(name, "crg", heights, dx, dy, metadata, [], float(grid.u[0]), float(v[0]))
+
+
+def check_crg_header(name: str, header: object, u: np.ndarray, v: np.ndarray, du: float) -> None:
+    """Refuses an OpenCRG header that contradicts its data or itself, naming both figures.
+
+    The OpenCRG library places the data by the header's start and increment and ignores the ends
+    it states (``reference_line_end_u``, ``long_section_v_left``) and the increment the U channel
+    of ``$KD_DEFINITION`` repeats: a wrong increment (1e-9 m), a truncated data section or a sign
+    slip would be read as stated, without a word. Each end stated must be where the number of
+    cross sections (long sections) at the increment puts the last one, within half an increment."""
+    road = getattr(header, "road", None) or {}
+
+    def stated(key: str) -> float | None:
+        value = road.get(key)
+        return float(value) if isinstance(value, (int, float)) else None
+
+    if not (np.isfinite(du) and du > 0):
+        raise ProfileFormatError(f"{name}: reference_line_increment is {du:g} m: the spacing along the road must be a "
+                                 "positive number of metres")
+    if not (np.isfinite(u[[0, -1]]).all() and np.isfinite(v).all()):
+        raise ProfileFormatError(f"{name}: the header places the data at u from {u[0]:g} to {u[-1]:g} m, v from "
+                                 f"{v[0]:g} to {v[-1]:g} m: not finite (reference_line_start_u, long_section_v_*)")
+    end_u = stated("reference_line_end_u")
+    if end_u is not None and abs(end_u - u[-1]) > du / 2:
+        raise ProfileFormatError(
+            f"{name}: the header contradicts its data: reference_line_end_u is {end_u:g} m, but its {u.size} cross "
+            f"sections from {u[0]:g} m at reference_line_increment {du:g} m end at {u[-1]:g} m (a truncated data "
+            "section, or a wrong increment or end)")
+    channel_u = next((c for c in getattr(header, "channels", ()) if getattr(c, "kind", "") == "U"), None)
+    extra = getattr(channel_u, "extra", ())
+    if len(extra) >= 2 and is_number(str(extra[1]).strip()) and abs(float(extra[1]) - du) > 1e-6 * du:
+        raise ProfileFormatError(f"{name}: the header contradicts itself: reference_line_increment is {du:g} m, the "
+                                 f"U channel's increment ($KD_DEFINITION) {float(extra[1]):g} m")
+    if v.size > 1:
+        steps = np.diff(v)
+        if not (steps > 0).all():
+            raise ProfileFormatError(f"{name}: the long sections' v runs from {v[0]:g} to {v[-1]:g} m, not increasing "
+                                     "from right to left (long_section_v_increment must be positive)")
+        v_left = stated("long_section_v_left")
+        if v_left is not None and abs(v_left - v[-1]) > float(np.mean(steps)) / 2:
+            raise ProfileFormatError(
+                f"{name}: the header contradicts its data: long_section_v_left is {v_left:g} m, but its {v.size} long "
+                f"sections from {v[0]:g} m at long_section_v_increment {float(np.mean(steps)):g} m end at "
+                f"{v[-1]:g} m")
 
 
 def read_x3p(path: Path, name: str, options: dict) -> Surface:
