@@ -18,6 +18,7 @@ from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError, RoadtexWarning
 from roadtex.profiles.plausibility import (
     coarse_sampling,
+    implausible_across,
     implausible_surface,
     implausible_texture,
     judged_once,
@@ -356,7 +357,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                         read = read_surface(path)
                     metadata = read.metadata
                     stated = stated_distance_unit(metadata)
-                    implausible = implausible_surface(read.heights, read.dx, path.name, interval_stated=stated is not None)
+                    implausible = (implausible_surface(read.heights, read.dx, path.name, interval_stated=stated is not None)
+                                   or implausible_across(read.dy, read.shape[0], path.name))
                     coarse = coarse_sampling(read.dx, path.name, stated) if stated is not None else None
                 else:
                     with judged_once():   # judged below, and warned about once

@@ -14,7 +14,12 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number
-from roadtex.profiles.plausibility import set_distance_unit, stated_distance_unit, warn_if_implausible_texture
+from roadtex.profiles.plausibility import (
+    set_distance_unit,
+    stated_distance_unit,
+    warn_if_implausible_across,
+    warn_if_implausible_texture,
+)
 from roadtex.profiles.profile import MAX_MAGNITUDE
 from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
@@ -152,7 +157,9 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
         ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
             (millimetres read as metres or as micrometres, distances in millimetres read as
             metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does;
-            a spacing dx above 5 mm only where its unit is assumed (a ``.npy``'s or a given ``dx``).
+            a spacing dx above 5 mm only where its unit is assumed (a ``.npy``'s or a given ``dx``);
+            rows across further apart than 0.5 m or spread over more than 5 m
+            (:func:`~roadtex.profiles.plausibility.implausible_across`), whatever the unit.
         CoarseSamplingWarning: dx above 5 mm whose unit is certain (OpenCRG, which is in metres by
             definition, or a long table's positions with their unit stated or given): read as it is.
 
@@ -186,6 +193,7 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
     # as read_profile: heights or spacings in the wrong unit warn (the bulk job refuses the run)
     warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True,
                                 stated=stated_distance_unit(surface.metadata))
+    warn_if_implausible_across(surface.dy, surface.shape[0], name, stacklevel=3)
     return surface
 
 
