@@ -233,3 +233,10 @@ def test_a_mask_member_of_another_size_than_the_grid_needs_is_refused(tmp_path: 
                                                  "points need 4"):
         read_surface(path)
 
+
+
+def test_a_forged_grid_size_is_quoted_short(tmp_path: Path) -> None:
+    path = raw_zip(tmp_path / "huge.x3p", [xml_member(main_xml("1e300", 3)), honest("bindata/data.bin", Z.tobytes())])
+    with pytest.raises(ProfileFormatError, match=r"declares 1e\+300 x 3 = 3e\+300 points, beyond") as caught:
+        read_surface(path)
+    assert len(str(caught.value)) < 300

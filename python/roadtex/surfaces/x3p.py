@@ -284,8 +284,11 @@ def read_archive(handle: BinaryIO, archive: zipfile.ZipFile, name: str
     if nz != 1:
         raise ProfileFormatError(f"{name}: SizeZ is {nz}: several layers are not supported (one height per point)")
     if nx * ny > MAX_POINTS:
-        raise ProfileFormatError(f"{name}: main.xml declares {nx} x {ny} = {nx * ny} points, beyond the {MAX_POINTS} "
-                                 "an X3P surface may hold here (refused before its data is inflated): split the scan")
+        def shown(count: int) -> str:   # a forged 1e300 is no 301-digit message
+            return str(count) if count < 10**15 else f"{float(count):.3g}"
+        raise ProfileFormatError(f"{name}: main.xml declares {shown(nx)} x {shown(ny)} = {shown(nx * ny)} points, beyond "
+                                 f"the {MAX_POINTS} an X3P surface may hold here (refused before its data is inflated): "
+                                 "split the scan")
     if child(record3, "DataList") is not None:
         raise ProfileFormatError(f"{name}: inline data (Record3/DataList) is not supported; a binary data file is")
     link = text(record3, "DataLink", "PointDataLink")
