@@ -74,3 +74,13 @@ def test_a_u_channel_increment_other_than_the_headers_is_refused(tmp_path: Path)
     with pytest.raises(ProfileFormatError, match="reference_line_increment is 0.01 m, the U channel's increment "
                                                  r"\(\$KD_DEFINITION\) 0.02 m"):
         read_surface(tmp_path / "u.crg")
+
+
+def test_an_increment_across_of_1e9_without_a_stated_end_is_judged_implausible(tmp_path: Path) -> None:
+    from roadtex.errors import ImplausibleTextureWarning
+
+    text = re.sub(rb"long_section_v_left\s*=\s*\S+\n", b"", crg_text(tmp_path))
+    text = re.sub(rb"long_section_v_increment\s*=\s*\S+", b"long_section_v_increment = 1.0e-09", text)
+    (tmp_path / "thin.crg").write_bytes(text)
+    with pytest.warns(ImplausibleTextureWarning, match=r"thin\.crg: its 5 rows across the road are 1e-09 m apart"):
+        read_surface(tmp_path / "thin.crg")

@@ -26,6 +26,7 @@ SCAN = synthetic_surface("dense_asphalt", 0.4, 0.05, 1e-3, seed=3)   # 50 rows, 
     (0.3, 10, 0.2, "further apart than the tile length (--segment-length) (0.2 m)"),
     (3e-3, 2000, None, "6 m wide in all, wider than a lane (5 m)"),
     (float("nan"), 10, None, "is not a positive number"),
+    (1e-9, 5, None, "5 rows across the road are 1e-09 m apart, finer than 1e-06 m"),   # an OpenCRG header's 1e-9
 ])
 def test_rows_too_far_apart_or_too_wide_are_named(dy: float, rows: int, tile: float | None, words: str) -> None:
     reason = implausible_across(dy, rows, "scan.npy", tile_length=tile)

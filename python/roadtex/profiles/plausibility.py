@@ -203,6 +203,9 @@ def implausible_surface(heights: np.ndarray, dx: float, name: str, *, interval_s
 #: The widest plausible surface (m): a lane is 3.5 to 4 m wide and texture scanners' swaths are
 #: narrower. Rows spread wider than this are a spacing across in the wrong unit (dy = 1 for 1 mm).
 PLAUSIBLE_MAX_WIDTH = 5.0
+#: The finest plausible spacing across (m): 1 um, as the job's finest --dx (a header's 1e-9 m
+#: increment would make rows 1 nm apart).
+PLAUSIBLE_MIN_DY = 1e-6
 
 
 def implausible_across(dy: float, rows: int, name: str, *, tile_length: float | None = None) -> str | None:
@@ -211,10 +214,14 @@ def implausible_across(dy: float, rows: int, name: str, *, tile_length: float | 
     space their lines 10 to 100 mm apart; a certain unit is never second-guessed): only rows
     further apart than the longest texture wavelength (:data:`TEXTURE_MAX_WAVELENGTH`, 0.5 m) or
     than the areal model's tile (``tile_length``, m: its elements would be longer across than the
-    tile along; a 1 m spacing on 1 mm readings ran past 100 s), or a surface wider than
-    :data:`PLAUSIBLE_MAX_WIDTH`: a dy in mm given as m, or a header's wrong increment."""
+    tile along; a 1 m spacing on 1 mm readings ran past 100 s), a surface wider than
+    :data:`PLAUSIBLE_MAX_WIDTH`, or rows finer than :data:`PLAUSIBLE_MIN_DY`: a dy in mm given as
+    m, or a header's wrong increment."""
     if not (np.isfinite(dy) and dy > 0):
         return f"{name}: the spacing across the road dy = {dy!r} m is not a positive number"
+    if dy < PLAUSIBLE_MIN_DY:
+        return (f"{name}: its {rows} rows across the road are {dy:.4g} m apart, finer than {PLAUSIBLE_MIN_DY:g} m (1 um): "
+                "not a road texture scan (a file's wrong increment across?)")
     width = rows * dy
     limits = [(TEXTURE_MAX_WAVELENGTH, "the longest texture wavelength")]
     if tile_length is not None:
