@@ -65,3 +65,23 @@ def test_the_manifest_writes_metadata_it_cannot_hold_as_text(tmp_path: Path) -> 
         manifest = build_manifest(tmp_path)
     rows = manifest.sort("run_id").select("site", "date", "speed_kmh").rows()
     assert rows == [("[1, 2]", '{"day": 1}', None), ("S1", "2020", 80.0)]
+
+
+@pytest.mark.parametrize("record, words", [
+    ("[1]", "a JSON object is expected"), ('{"history": "abc"}', "'history' must be a list of text lines"),
+    ('{"metadata": 5}', "'metadata' must be an object, got int"), ("{oops", "Expecting property name"),
+])
+def test_the_record_stored_in_a_csv_or_parquet_file_is_checked_as_a_sidecar(tmp_path: Path, record: str,
+                                                                             words: str) -> None:
+    import polars as pl
+
+    csv = tmp_path / "p.csv"
+    csv.write_text(f"# roadtex-profile: {record}\ndistance (m),height (m)\n"
+                   + "".join(f"{i * 1e-3},{z}\n" for i, z in enumerate(LINE)), encoding="utf-8")
+    with pytest.raises(ProfileFormatError, match=rf"p\.csv: damaged roadtex-profile header line: {words}"):
+        roadtex.read_profile(csv)
+    parquet = tmp_path / "p.parquet"
+    pl.DataFrame({"distance_m": 1e-3 * np.arange(LINE.size), "height_m": LINE}).write_parquet(
+        parquet, metadata={"roadtex-profile": record})
+    with pytest.raises(ProfileFormatError, match=rf"p\.parquet: damaged roadtex-profile metadata: {words}"):
+        roadtex.read_profile(parquet)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -93,12 +94,9 @@ MAX_SIDECAR_BYTES = 2**20
 
 
 def load_sidecar(sidecar: Path) -> dict:
-    """A sidecar's JSON object, its size and shape checked before use: at most
-    :data:`MAX_SIDECAR_BYTES`; an object whose ``metadata`` is an object (of any JSON values, as
-    :func:`~roadtex.write_profile` writes them), whose ``history`` is a list of text, and whose
-    units are text. Anything else is a
-    ProfileFormatError naming the sidecar (before: zip's, dict's and json's own exceptions, or a
-    history string split into characters)."""
+    """A sidecar's JSON object, its size checked before it is read (at most
+    :data:`MAX_SIDECAR_BYTES`) and its shape by :func:`stored_record`; anything else is a
+    ProfileFormatError naming the sidecar."""
     def damaged(why: str) -> ProfileFormatError:
         return ProfileFormatError(f"{sidecar.name}: damaged metadata file: {why}")
 
@@ -107,8 +105,22 @@ def load_sidecar(sidecar: Path) -> dict:
         if size > MAX_SIDECAR_BYTES:
             raise damaged(f"{size} bytes, beyond the {MAX_SIDECAR_BYTES} a sidecar of spacings, units and metadata "
                           "may hold (refused unread)")
-        stored = json.loads(sidecar.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, OSError) as exc:
+        text = sidecar.read_text(encoding="utf-8")
+    except (UnicodeDecodeError, OSError) as exc:
+        raise damaged(str(exc)[:200]) from None
+    return stored_record(text, damaged)
+
+
+def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> dict:
+    """The record roadtex stores with a file (a ``.npy``'s sidecar, a CSV's ``# roadtex-profile:``
+    line, a Parquet file's key-value metadata) as a dict, its shape checked: an object whose
+    ``metadata`` is an object (any JSON values, as :func:`~roadtex.write_profile` writes them),
+    whose ``history`` is a list of text and whose units are text. ``damaged(why)`` makes the error
+    naming the file (before: dict's and json's own exceptions, or a history string split into
+    characters)."""
+    try:
+        stored = json.loads(text)
+    except ValueError as exc:
         raise damaged(str(exc)[:200]) from None
     except RecursionError:
         raise damaged("nested too deeply") from None
