@@ -204,3 +204,46 @@ def moduli_array(value: object) -> np.ndarray:
     if moduli.ndim != 1:
         raise InvalidInputError(f"youngs_modulus must be a number or a 1-D sequence, got shape {moduli.shape}")
     return moduli
+
+
+def required(value: object, name: str, unit: str) -> object:
+    """``value``, refused when None (an argument that has a default only so that a Profile may be
+    given without its dx before it)."""
+    if value is None:
+        raise InvalidInputError(f"{name} ({unit}) is required")
+    return value
+
+
+def spacing_of(values: object, dx: object, name: str, dy: object = None, *,
+               surface: bool = False) -> tuple[object, float, float | None]:
+    """(heights, dx, dy) of what a public function was given: a :class:`~roadtex.Profile` (its
+    heights and dx; ``surface=False``), a :class:`~roadtex.Surface` (its heights, dx and dy;
+    ``surface=True``), or an array of heights with its spacing(s) in metres. A spacing given with a
+    Profile or Surface must be the one it carries (to 1e-9 of it): two different spacings are a
+    mistake, not a choice; a Profile whose readings are not equally spaced is refused (resample it).
+    ``dy`` is None where a surface array is given without one."""
+    from roadtex.profiles.profile import Profile  # here: roadtex.profiles imports this module
+    from roadtex.surfaces.surface import Surface
+
+    kind = Surface if surface else Profile
+    if isinstance(values, Profile if surface else Surface):
+        wanted = "a Surface (or a 2-D array)" if surface else "a Profile (or a 1-D array)"
+        raise InvalidInputError(f"{name} is a {type(values).__name__}; this function takes {wanted}")
+    if not isinstance(values, kind):
+        if dx is None:
+            raise InvalidInputError(f"dx (m) is required with an array of {name} (a {kind.__name__} carries its own)")
+        return values, to_float(dx, "dx"), None if dy is None else to_float(dy, "dy")
+    if isinstance(values, Profile) and not values.is_uniform:
+        raise InvalidInputError(f"{name}: the Profile's readings are not equally spaced (dx {values.dx:g} m); "
+                                "resample it first (Profile.resample)")
+    carried = {"dx": float(values.dx)} | ({"dy": float(values.dy)} if surface else {})
+    for key, given in (("dx", dx), ("dy", dy)):
+        if given is None or key not in carried:
+            continue
+        value = to_float(given, key)
+        if abs(value - carried[key]) > 1e-9 * carried[key]:
+            raise InvalidInputError(f"{key} {value:g} m was given for a {kind.__name__} whose {key} is "
+                                    f"{carried[key]:g} m: leave {key} out (the {kind.__name__} carries it)")
+    if not surface and dy is not None:
+        raise InvalidInputError("dy is not an argument for a Profile")
+    return values.heights, carried["dx"], carried.get("dy")

@@ -55,8 +55,11 @@ def test_a_product_of_cosines_has_its_closed_forms() -> None:
 def test_a_plane_has_every_parameter_zero() -> None:
     x, y = grid(50, 300, 0.2e-3, 0.5e-3)
     p = areal_parameters(2e-3 + 0.01 * x - 0.03 * y, 0.2e-3, 0.5e-3)
-    for name in ("sa", "sq", "sp", "sv", "sz", "sdq", "sdr"):
+    for name in ("sa", "sq", "sp", "sv", "sz"):
         assert abs(p[name]) < 1e-15, name
+    # slopes of the rounding left (ulps of 2e-3 m, 4e-19 m) over one spacing (0.2 mm): ~1e-15
+    for name in ("sdq", "sdr"):
+        assert abs(p[name]) < 1e-14, name
     assert math.isnan(p["ssk"]) and math.isnan(p["sku"])   # undefined on a flat surface, not rounding noise
     # without the F-operation the tilt is texture: slope 0.01 along, -0.03 across
     tilted = areal_parameters(2e-3 + 0.01 * x - 0.03 * y, 0.2e-3, 0.5e-3, remove_plane=False)
@@ -87,6 +90,41 @@ def test_bad_grids_are_refused() -> None:
         areal_parameters(np.zeros(10), 1e-3, 1e-3)
     with pytest.raises(InvalidInputError, match="valid"):
         areal_parameters(np.full((3, 3), np.nan), 1e-3, 1e-3)
+
+
+def test_an_infinite_height_is_refused_clearly() -> None:
+    z = np.random.default_rng(4).normal(0.0, 1e-3, (6, 9))
+    z[2, 5] = -np.inf
+    with pytest.raises(InvalidInputError, match=r"1 infinite value\(s\) \(the first at \(2, 5\)\)"):
+        areal_parameters(z, 1e-3, 1e-3)
+
+
+@pytest.mark.parametrize("samples", [4, 5, 6, 8, 10])
+def test_slopes_at_scanner_resolution_keep_most_of_a_short_wavelengths_gradient(samples: int) -> None:
+    # 1 mm sampling, a wavelength of 4 to 10 samples: central differences kept sin(2 pi/n)/(2 pi/n) of
+    # the slope (64 % at 4 samples); two-point differences between readings keep at least 90 %
+    amplitude, dx = 0.5e-3, 1e-3
+    x, _ = grid(20, samples * 40, dx, dx)
+    p = areal_parameters(amplitude * np.cos(2 * np.pi * x / (samples * dx)), dx, dx)
+    assert p["sdq"] >= 0.9 * amplitude * (2 * np.pi / (samples * dx)) / math.sqrt(2)
+
+
+@pytest.mark.parametrize("samples", [4, 6, 8])
+def test_sdq_and_sdr_agree_with_surface_topography_at_scanner_resolution(samples: int) -> None:
+    """SurfaceTopography (an independent implementation, MIT) computes rms_gradient with two-point
+    (upwind) differences by default, the gradient stated in roadtex.surfaces.areal."""
+    st = pytest.importorskip("SurfaceTopography", reason="SurfaceTopography is not installed (pip install SurfaceTopography)")
+    dx, dy = 1e-3, 1e-3
+    x, y = grid(60, 90, dx, dy)
+    rng = np.random.default_rng(samples)
+    z = (0.6e-3 * np.cos(2 * np.pi * x / (samples * dx)) + 0.3e-3 * np.sin(2 * np.pi * (x + 2 * y) / (samples * 1.5 * dx))
+         + rng.normal(0.0, 0.1e-3, x.shape))
+    ours = areal_parameters(z, dx, dy, remove_plane=False)
+    rows, columns = z.shape
+    topography = st.Topography(z.T, physical_sizes=(columns * dx, rows * dy), periodic=False)   # its axes: x first
+    assert ours["sdq"] == pytest.approx(topography.rms_gradient(), rel=1e-12)
+    slx, sly = topography.derivative(1)
+    assert ours["sdr"] == pytest.approx(float(np.mean(np.sqrt(1 + slx ** 2 + sly ** 2) - 1)), rel=1e-12)
 
 
 def test_the_surface_job_writes_the_parameters_of_the_run_and_of_each_tile(tmp_path) -> None:

@@ -19,6 +19,7 @@ from roadtex.archive.store import STATUS_FILE
 from roadtex.errors import CoarseSamplingWarning, ImplausibleTextureWarning, ManifestError, RoadtexWarning
 from roadtex.profiles.plausibility import (
     coarse_sampling,
+    implausible_across,
     implausible_surface,
     implausible_texture,
     judged_once,
@@ -362,7 +363,8 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                         read = read_surface(path)
                     metadata = read.metadata
                     stated = stated_distance_unit(metadata)
-                    implausible = implausible_surface(read.heights, read.dx, path.name, interval_stated=stated is not None)
+                    implausible = (implausible_surface(read.heights, read.dx, path.name, interval_stated=stated is not None)
+                                   or implausible_across(read.dy, read.shape[0], path.name))
                     coarse = coarse_sampling(read.dx, path.name, stated) if stated is not None else None
                 else:
                     with judged_once():   # judged below, and warned about once
@@ -387,7 +389,7 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 warnings.warn(coarse, CoarseSamplingWarning, stacklevel=2)
             for name in METADATA_COLUMNS:
                 if name in metadata and metadata[name] is not None:
-                    row[name] = metadata[name]
+                    row[name] = metadata_cell(name, metadata[name], path.name)
         rows.append(row)
     renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
                if row["run_id"] != path.stem]
@@ -397,6 +399,22 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                       RoadtexWarning, stacklevel=2)
     table = pl.DataFrame(rows, infer_schema_length=None)
     return read_manifest(table, base_dir=root)
+
+
+def metadata_cell(name: str, value: Any, file: str) -> Any:
+    """A file's metadata value as its manifest cell: the text columns (site, date, ...) hold text,
+    so a number is written as such and a list or object (a sidecar's, any JSON) as its JSON text:
+    one file's [1, 2] beside another's "S1" made polars refuse the whole table. A speed that is
+    not a number is left empty, with a warning naming the file."""
+    if name == "speed_kmh":
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+        warnings.warn(f"{file}: its metadata's speed_kmh {str(value)[:40]!r} is not a number: its manifest cell is "
+                      "left empty (write the speed there, in km/h)", RoadtexWarning, stacklevel=3)
+        return None
+    if isinstance(value, str):
+        return value
+    return json.dumps(value) if isinstance(value, (list, dict)) else str(value)
 
 
 def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:

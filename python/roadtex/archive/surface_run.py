@@ -36,7 +36,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.areal_outputs import areal_table
-from roadtex.archive.compute import plausibility_notes, run_stage, segment_mpd
+from roadtex.archive.compute import ALLOW_IMPLAUSIBLE, plausibility_notes, run_stage, segment_mpd
 from roadtex.archive.options import DEFAULT_TOL, ProcessingOptions
 from roadtex.archive.plan import JobPlan, RunPlan
 from roadtex.archive.reading import surface_reader_options
@@ -66,7 +66,7 @@ from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
 from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
 from roadtex.profiles.mpd import mpd as mean_profile_depth
-from roadtex.profiles.plausibility import judged_once
+from roadtex.profiles.plausibility import implausible_across, judged_once
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -143,6 +143,9 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
         raise RunFailure("read", InvalidInputError(f"{name}: no valid reading"))
     notes = plausibility_notes(finite[None, :], raw.dx, name, raw.metadata, options, given_dx=reader.get("dx"),
                                row="surface")
+    across = implausible_across(raw.dy, raw.shape[0], name, tile_length=options.segment_length)
+    if across is not None and not options.allow_implausible:   # rows 1 m apart ran past 100 s (issue 38)
+        raise RunFailure("read", InvalidInputError(f"{across} If the file is right as read, {ALLOW_IMPLAUSIBLE}."))
     surface, cleaning, missing = run_stage("condition", lambda: condition_surface(raw, options.spike_alpha))
     if surface.shape[0] < MIN_SURFACE_ROWS:  # refused before any solve, naming the file
         raise RunFailure("read", InvalidInputError(

@@ -10,20 +10,30 @@ from typing import Literal, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, thread_count, to_float, warn_if_implausible_rubber
+from roadtex._checks import (
+    as_float_array,
+    moduli_array,
+    positive_int,
+    required,
+    spacing_of,
+    thread_count,
+    to_float,
+    warn_if_implausible_rubber,
+)
 from roadtex.errors import ConvergenceError
 from roadtex.models.results import ContactBatch, ContactResult
 from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.profile import Profile
 
 Kernel = Literal["element", "spectral"]
 Method = Literal["cg", "direct"]
 
 
 def contact(
-    heights: np.ndarray | Sequence[float],
-    dx: float,
-    youngs_modulus: float,
-    mean_pressure: float,
+    heights: Profile | np.ndarray | Sequence[float],
+    dx: float | None = None,
+    youngs_modulus: float | None = None,
+    mean_pressure: float | None = None,
     *,
     poisson: float = 0.5,
     periodic: bool = True,
@@ -36,10 +46,12 @@ def contact(
     """Presses an elastic half-space (the tyre rubber) onto a rigid road profile.
 
     Args:
-        heights: profile heights z (m), positive up, on N >= 8 equal elements.
-        dx: element width (m); the sample length is L = N dx.
-        youngs_modulus: E of the rubber (Pa), e.g. 2.5e6.
-        mean_pressure: P, the mean contact pressure over L (Pa), e.g. 2e5.
+        heights: profile heights z (m), positive up, on N >= 8 equal elements; or a
+            :class:`~roadtex.Profile` (equally spaced, no drop-outs), which carries its dx.
+        dx: element width (m); the sample length is L = N dx. Required with an array; with a
+            Profile it may be left out (given, it must be the Profile's).
+        youngs_modulus: E of the rubber (Pa), e.g. 2.5e6 (required).
+        mean_pressure: P, the mean contact pressure over L (Pa), e.g. 2e5 (required).
         poisson: nu in (-1, 0.5]; E* = E / (1 - nu^2).
         periodic: True (default) repeats the sample infinitely (the INRETS periodic model);
             False treats it as a finite sample (edge over-pressures).
@@ -67,9 +79,10 @@ def contact(
         ImplausibleParameterWarning: E outside 10 kPa to 10 GPa or P outside 100 Pa to 100 MPa:
             probably MPa given as Pa (silence it for dimensionless model problems).
     """
-    z = as_float_array(heights, "heights", 1)
-    dx_f, e_f, p_f, nu_f = (to_float(dx, "dx"), to_float(youngs_modulus, "youngs_modulus"),
-                            to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson"))
+    values, dx_f, _ = spacing_of(heights, dx, "heights")
+    z = as_float_array(values, "heights", 1)
+    e_f, p_f, nu_f = (to_float(required(youngs_modulus, "youngs_modulus", "Pa"), "youngs_modulus"),
+                      to_float(required(mean_pressure, "mean_pressure", "Pa"), "mean_pressure"), to_float(poisson, "poisson"))
     warn_if_implausible_texture(z, dx_f, "heights")
     warn_if_implausible_rubber(e_f, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve(

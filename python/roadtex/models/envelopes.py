@@ -7,11 +7,12 @@ from typing import Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, to_float
+from roadtex._checks import as_float_array, spacing_of, to_float
 from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.profile import Profile
 
 
-def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 54.0) -> np.ndarray:
+def von_meier(heights: Profile | np.ndarray | Sequence[float], dx: float | None = None, d_star: float = 54.0) -> np.ndarray:
     """The von Meier et al. envelope of a profile (m).
 
     The rubber sags into cavities as parabolas of bounded curvature: the result e is the lowest
@@ -20,8 +21,10 @@ def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 
     heights - d_star (i dx)^2 plus d_star (i dx)^2, in O(N).
 
     Args:
-        heights: profile heights (m), at least 3 points, no NaN.
-        dx: sampling interval (m).
+        heights: profile heights (m), at least 3 points, no NaN; or a :class:`~roadtex.Profile`
+            (equally spaced, no drop-outs), which carries its dx.
+        dx: sampling interval (m); required with an array (with a Profile it may be left out;
+            given, it must be the Profile's).
         d_star: curvature limit d* (1/m); the seed's 0.054 1/mm is 54 1/m. 0 gives the upper
             convex hull of the profile (a taut string).
 
@@ -31,7 +34,7 @@ def von_meier(heights: np.ndarray | Sequence[float], dx: float, d_star: float = 
     Warns:
         ImplausibleTextureWarning: heights that cannot be a road texture in metres (in mm?).
     """
-    z = as_float_array(heights, "heights", 1)
-    dx_f = to_float(dx, "dx")
+    values, dx_f, _ = spacing_of(heights, dx, "heights")
+    z = as_float_array(values, "heights", 1)
     warn_if_implausible_texture(z, dx_f, "heights")
     return _core.von_meier(z, dx_f, to_float(d_star, "d_star"))

@@ -48,11 +48,38 @@ INTERPOLANTS: tuple[str, ...] = ("linear", "pchip", "bandlimited")
 
 #: Readings carried over each end for the cubic interpolant (its slopes look two readings ahead).
 PCHIP_PADDING = 3
+#: The largest refinement: a model grid 64 times finer than the data's (0.5 mm data solved every
+#: 8 um). The levels converge by k = 8 (the module docstring's table; budget.study climbs to 32 at
+#: most); beyond 64 a refinement is a typo (``--refine 10000``), which allocated until the process died.
+MAX_REFINE = 64
+#: The most model-grid points of one segment (line) or one tile (surface, k_along x k_across times
+#: its readings): 2**22, 32 MiB of heights, which the solver's arrays multiply several times.
+MAX_MODEL_POINTS = 2**22
 
 
 def check_refine(refine: object, name: str = "refine") -> int:
-    """``refine`` as a whole number >= 1 (the model grid is ``refine`` times finer than the data's)."""
-    return whole_number(refine, name, 1)
+    """``refine`` as a whole number from 1 to :data:`MAX_REFINE` (the model grid is ``refine`` times
+    finer than the data's)."""
+    k = whole_number(refine, name, 1)
+    if k > MAX_REFINE:
+        raise InvalidInputError(f"{name} must be at most {MAX_REFINE} (a model grid {MAX_REFINE} times finer than the "
+                                f"data's; levels converge by 8), got {k}")
+    return k
+
+
+def check_model_heights(z: np.ndarray, points: int, what: str) -> None:
+    """Refuses readings the interpolants cannot join (NaN, infinite: drop-outs are filled by the
+    conditioning first; each interpolant spread them differently) and a model grid of more than
+    :data:`MAX_MODEL_POINTS` points (``points``: of one segment or tile), before allocating it."""
+    bad = ~np.isfinite(z)
+    if bad.any():
+        first = np.unravel_index(int(np.argmax(bad)), z.shape)
+        raise InvalidInputError(f"heights hold {int(bad.sum())} non-finite reading(s) (the first at index "
+                                f"{tuple(int(i) for i in first)}: {z[first]!r}): the model grid joins readings, so "
+                                "drop-outs must be filled first (roadtex.profiles.conditioning)")
+    if points > MAX_MODEL_POINTS:
+        raise InvalidInputError(f"the model grid of one {what} would hold {points} points, beyond {MAX_MODEL_POINTS}: "
+                                "a smaller refinement or a shorter segment or tile")
 
 
 def check_interpolant(interpolant: object) -> Interpolant:
@@ -66,8 +93,13 @@ def refine_periodic(heights: np.ndarray, refine: int, interpolant: Interpolant =
 
     Args:
         heights: (..., N) heights (m) of periodic segments (the last axis repeats with period N dx).
-        refine: k >= 1; k = 1 returns ``heights`` itself (the same array, not a copy).
+        refine: k from 1 to :data:`MAX_REFINE`; k = 1 returns ``heights`` itself (the same array,
+            not a copy).
         interpolant: the continuous road between readings, see the module docstring.
+
+    Raises:
+        InvalidInputError: a refinement beyond :data:`MAX_REFINE`, a segment's model grid beyond
+            :data:`MAX_MODEL_POINTS` points, or (k > 1) a NaN or infinite reading.
 
     Returns:
         (..., N k) heights (m); point ``i k`` is reading ``i`` exactly (``"linear"``, ``"pchip"``;
@@ -77,9 +109,12 @@ def refine_periodic(heights: np.ndarray, refine: int, interpolant: Interpolant =
     k = check_refine(refine)
     kind = check_interpolant(interpolant)
     z = np.asarray(heights, dtype=np.float64)
+    if z.ndim < 1 or z.shape[-1] < 1:
+        raise InvalidInputError(f"heights must hold at least one reading per segment, got shape {z.shape}")
     if k == 1:
         return z
     n = z.shape[-1]
+    check_model_heights(z, n * k, "segment")
     if kind == "linear":
         following = np.roll(z, -1, axis=-1)
         step = (following - z)[..., None]
@@ -109,8 +144,13 @@ def refine_periodic_surface(heights: np.ndarray, k_along: int, k_across: int = 1
     Args:
         heights: (..., ny, nx) heights (m), rows across the road (spacing dy), columns along it
             (dx), periodic both ways (the areal model's tiles).
-        k_along, k_across: refinements >= 1 along and across; (1, 1) returns ``heights`` itself.
+        k_along, k_across: refinements from 1 to :data:`MAX_REFINE` along and across; (1, 1)
+            returns ``heights`` itself.
         interpolant: as for :func:`refine_periodic`.
+
+    Raises:
+        InvalidInputError: as :func:`refine_periodic`, the points of a tile's model grid
+            (``ny k_across nx k_along``) bounded by :data:`MAX_MODEL_POINTS`.
 
     Returns:
         (..., ny k_across, nx k_along) heights (m) every (dy / k_across, dx / k_along); point
@@ -121,6 +161,8 @@ def refine_periodic_surface(heights: np.ndarray, k_along: int, k_across: int = 1
     z = np.asarray(heights, dtype=np.float64)
     if z.ndim < 2:
         raise InvalidInputError(f"heights must have at least 2 axes (rows across, columns along), got shape {z.shape}")
+    if along * across > 1:   # the product grows as k^2: checked before the first pass allocates
+        check_model_heights(z, z.shape[-1] * along * z.shape[-2] * across, "tile")
     fine = refine_periodic(z, along, interpolant)
     if across == 1:
         return fine

@@ -14,10 +14,19 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from roadtex import _core
-from roadtex._checks import as_float_array, moduli_array, positive_int, thread_count, to_float, warn_if_implausible_rubber
+from roadtex._checks import (
+    as_float_array,
+    moduli_array,
+    positive_int,
+    spacing_of,
+    thread_count,
+    to_float,
+    warn_if_implausible_rubber,
+)
 from roadtex.errors import ConvergenceError
 from roadtex.models.contact import Kernel, Method
 from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.surfaces.surface import Surface
 
 
 @dataclass(frozen=True)
@@ -109,8 +118,8 @@ def _spacings(dx: float, dy: float | None) -> tuple[float, float]:
 
 
 def contact_surface(
-    heights: np.ndarray | Sequence[Sequence[float]],
-    dx: float,
+    heights: Surface | np.ndarray | Sequence[Sequence[float]],
+    dx: float | None = None,
     dy: float | None = None,
     *,
     youngs_modulus: float,
@@ -127,9 +136,12 @@ def contact_surface(
 
     Args:
         heights: surface heights z[iy, ix] (m), positive up: rows across the road (y), columns
-            along it (x); at least 4 points each way.
-        dx: element size along the road, between columns (m).
-        dy: element size across the road, between rows (m); None takes dx.
+            along it (x); at least 4 points each way. Or a :class:`~roadtex.Surface` (no
+            drop-outs), which carries its dx and dy.
+        dx: element size along the road, between columns (m); required with an array (with a
+            Surface it may be left out; given, it must be the Surface's).
+        dy: element size across the road, between rows (m); None takes dx (an array) or the
+            Surface's dy.
         youngs_modulus: E of the rubber (Pa), e.g. 2.5e6.
         mean_pressure: P, the mean contact pressure over the surface (Pa), e.g. 2e5.
         poisson: nu in (-1, 0.5]; E* = E / (1 - nu^2).
@@ -154,8 +166,9 @@ def contact_surface(
         InvalidInputError: bad input, with the argument and the problem named.
         ConvergenceError: see ``raise_on_nonconvergence``.
     """
-    z = as_float_array(heights, "heights", 2)
-    dx_f, dy_f = _spacings(dx, dy)
+    values, dx_given, dy_given = spacing_of(heights, dx, "heights", dy, surface=True)
+    z = as_float_array(values, "heights", 2)
+    dx_f, dy_f = _spacings(dx_given, dy_given)
     e_f, p_f, nu_f = (to_float(youngs_modulus, "youngs_modulus"), to_float(mean_pressure, "mean_pressure"),
                       to_float(poisson, "poisson"))
     warn_if_implausible_texture(z, dx_f, "heights", row="surface row")

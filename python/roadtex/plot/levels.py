@@ -28,7 +28,9 @@ def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", k
             ``youngs_modulus`` (Pa; one curve per E), ``reported`` (only reported rows are drawn) and
             the error column. Several rows of one band and E (segments, runs) are averaged in power.
         errors: the column of the levels' stated numerical error (dB), drawn as error bars (the largest
-            over the rows averaged); None, a table without it or with no value in it: no error bars.
+            over the rows averaged); None, a table without it or with no value in it: no error bars. A
+            NaN or infinite error draws no bar, and the count of such rows is written on the axes;
+            non-finite levels are left out of the band's mean.
         kind: "third_octave" or "octave", for the band axis' title.
         ax: two axes (levels, difference) to draw into instead of a new figure.
 
@@ -42,6 +44,11 @@ def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", k
     if "youngs_modulus" not in table.columns:
         table = table.with_columns(pl.lit(None, dtype=pl.Float64).alias("youngs_modulus"))
     # no bars where no level states an error (the budget off): zero-length bars would claim exactness
+    unstated = 0
+    if errors is not None and errors in table.columns and table[errors].dtype.is_float():
+        # an infinite or NaN stated error draws no bar (an infinite bar would fill the axes): counted and said
+        unstated = int((table[errors].is_not_null() & ~table[errors].is_finite()).sum())
+        table = table.with_columns(pl.when(pl.col(errors).is_finite()).then(pl.col(errors)).alias(errors))
     with_errors = errors is not None and errors in table.columns and table[errors].is_not_null().any()
     stated = [pl.col(errors).max().alias("error")] if with_errors else [pl.lit(0.0).alias("error")]
     means = (table.group_by("youngs_modulus", "band").agg(pl.col("label").first(), _energetic_mean("texture_level"),
@@ -63,6 +70,9 @@ def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", k
         # the difference's error: both levels' stated errors, added (they are bounds, not deviations)
         bottom.errorbar(xs, rows["enveloped_level"] - rows["texture_level"], yerr=None if yerr is None else 2 * yerr,
                         color=colour, lw=1.0, marker=".", capsize=2, label=name)
+    if unstated:
+        top.text(0.01, 0.01, f"{unstated} row(s) with a non-finite stated error: no error bar", transform=top.transAxes,
+                 fontsize=7, color="0.35", va="bottom")
     top.set_ylabel(f"texture level L_tx ({TEXTURE_DB})")
     bottom.set_ylabel("enveloped − original level (dB)")
     bottom.axhline(0, color="0.5", lw=0.7)
@@ -80,22 +90,42 @@ def speed_vs_error(rows, *, ax=None):
 
     Args:
         rows: a polars DataFrame or a list of dicts with ``solver``, ``case``, ``l1_error`` (1) and
-            ``time_s`` (s), as ``benches/speed_vs_error.py --json`` writes them; rows without a time
-            or an error are left out.
+            ``time_s`` (s), as ``benches/speed_vs_error.py --json`` writes them; rows whose time or
+            error is missing, zero or not finite (NaN, inf) are left out, and their count is written
+            on the axes.
         ax: draw into this axes instead of a new figure.
 
     Returns:
-        ``(fig, ax)``, or ``(None, None)`` when no row has both a time and an error.
+        ``(fig, ax)``, or ``(None, None)`` when no row has both a time and an error to draw.
+
+    Raises:
+        InvalidInputError: rows that are no table, lack a column, or hold text for a number.
     """
-    table = rows if isinstance(rows, pl.DataFrame) else pl.DataFrame(list(rows), infer_schema_length=None)
+    if isinstance(rows, pl.DataFrame):
+        table = rows
+    else:
+        try:
+            table = pl.DataFrame(list(rows), infer_schema_length=None)
+        except (TypeError, ValueError, pl.exceptions.PolarsError) as exc:
+            raise InvalidInputError(f"speed rows must be a table or a list of objects with solver, case, l1_error and "
+                                    f"time_s: {str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__}") from None
     needed = {"solver", "case", "l1_error", "time_s"}
     if table.height and not needed <= set(table.columns):
         raise InvalidInputError(f"speed rows lack column(s) {sorted(needed - set(table.columns))}")
-    if table.height:
-        table = table.filter(pl.col("time_s").is_not_null() & (pl.col("time_s") > 0) & pl.col("l1_error").is_not_null())
+    for column in ("l1_error", "time_s"):
+        if table.height and not (table[column].dtype.is_numeric() or table[column].dtype == pl.Null):
+            raise InvalidInputError(f"speed rows' {column} must be numbers, got {table[column].dtype}")
+    given = table.height
+    if table.height:   # a log-log axis draws positive, finite values only: the others are counted and said
+        drawable = (pl.col("time_s").is_finite() & (pl.col("time_s") > 0)
+                    & pl.col("l1_error").is_finite() & (pl.col("l1_error") > 0))
+        table = table.filter(drawable.fill_null(False))
     if table.height == 0:
         return None, None
     fig, ax = new_axes(ax, figsize=(8.0, 4.2))
+    if given > table.height:
+        ax.text(0.01, 0.01, f"{given - table.height} of {given} rows not drawn: time or error missing, zero or not "
+                "finite", transform=ax.transAxes, fontsize=7, color="0.35", va="bottom")
     markers = {"westergaard": "o", "self_affine": "s"}
     for colour, ((solver,), group) in zip(COLOURS, table.group_by("solver", maintain_order=True)):
         for (case,), sub in group.group_by("case", maintain_order=True):

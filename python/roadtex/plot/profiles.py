@@ -6,6 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from roadtex._checks import finite_number, positive
 from roadtex.errors import InvalidInputError
 from roadtex.plot.style import COLOURS, MM, MPA, legend_outside, modulus_label, new_axes
 
@@ -20,8 +21,19 @@ def _by_modulus(values, n: int, name: str) -> dict[float | None, np.ndarray]:
         array = np.asarray(v, dtype=float)
         if array.shape != (n,):
             raise InvalidInputError(f"{name} has shape {array.shape}; expected ({n},), the heights' shape")
+        finite_array(array, name)
         out[None if e is None else float(e)] = array
     return out
+
+
+def finite_array(array: np.ndarray, name: str) -> None:
+    """Refuses an infinite value (NaN is a drop-out, drawn as a gap): matplotlib would leave it out
+    without a word, or fail on the axis limits."""
+    infinite = np.isinf(array)
+    if infinite.any():
+        first = np.unravel_index(int(np.argmax(infinite)), array.shape)
+        raise InvalidInputError(f"{name} holds {int(infinite.sum())} infinite value(s), the first at index "
+                                f"{tuple(int(i) for i in first)}: nothing to draw there (NaN is drawn as a gap)")
 
 
 def _window(n: int, dx: float, window: float | None) -> slice:
@@ -56,8 +68,10 @@ def profile(heights, dx: float, *, envelope=None, pressure=None, x0: float = 0.0
     z = np.asarray(heights, dtype=float)
     if z.ndim != 1 or z.size < 2:
         raise InvalidInputError(f"heights must be a 1-D profile of at least 2 points; got shape {z.shape}")
-    if not dx > 0:
-        raise InvalidInputError(f"dx must be positive (m); got {dx}")
+    finite_array(z, "heights")
+    dx = positive(dx, "dx", "m")
+    x0 = finite_number(x0, "x0")
+    window = None if window is None else positive(window, "window", "m")
     envelopes = _by_modulus(envelope, z.size, "envelope")
     pressures = _by_modulus(pressure, z.size, "pressure")
     fig, axes = new_axes(ax, rows=2 if pressures else 1, figsize=(8.0, 5.0 if pressures else 3.2))

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from roadtex._checks import finite_number, positive
 from roadtex.errors import InvalidInputError
+from roadtex.plot.profiles import finite_array
 from roadtex.plot.style import MM, MPA, new_axes
 
 #: What each kind of map shows: (scale from SI, colour-bar label, colour map).
@@ -34,9 +36,10 @@ def surface_map(values, dx: float, dy: float | None = None, *, kind: str = "heig
         raise InvalidInputError(f"values must be a 2-D map of at least 2 x 2 points; got shape {array.shape}")
     if kind not in KINDS:
         raise InvalidInputError(f"kind must be one of {sorted(KINDS)}; got {kind!r}")
-    dy = dx if dy is None else dy
-    if not (dx > 0 and dy > 0):
-        raise InvalidInputError(f"dx and dy must be positive (m); got {dx}, {dy}")
+    finite_array(array, "values")
+    dx = positive(dx, "dx", "m")
+    dy = dx if dy is None else positive(dy, "dy", "m")
+    x0, y0 = finite_number(x0, "x0"), finite_number(y0, "y0")
     scale, label, cmap = KINDS[kind]
     ny, nx = array.shape
     # pixel edges: each value covers its dx x dy element

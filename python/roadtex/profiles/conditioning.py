@@ -110,6 +110,27 @@ def gap_mask(steps: np.ndarray, dx: float) -> np.ndarray:
     return gaps
 
 
+#: A step over this many sampling intervals (1 m at 1 mm) that :func:`gap_mask` does not read as
+#: missing rows is a jump (:func:`distance_jumps`): two runs joined in one file, or a corrupt
+#: distance. It is neither rows to fill (it may span more rows than the file holds, or no whole
+#: number of steps) nor a sampling interval: averaged into the steps, a 1 km jump in 2 m of 1 mm
+#: readings made a 0.5 m "interval", refused as distances in mm read as m.
+JUMP_STEPS = 1000
+
+
+def distance_jumps(positions: np.ndarray) -> np.ndarray:
+    """Indices ``i`` of the steps ``positions[i] -> positions[i + 1]`` (sorted, m) that are jumps
+    (:data:`JUMP_STEPS`): over 1000 median steps and not a gap of missing rows (:func:`gap_mask`)."""
+    x = np.asarray(positions, dtype=np.float64)
+    if x.size < 3:
+        return np.empty(0, dtype=np.int64)
+    steps = np.diff(x)
+    typical = float(np.median(steps))
+    if not typical > 0:
+        return np.empty(0, dtype=np.int64)
+    return np.flatnonzero((steps > JUMP_STEPS * typical) & ~gap_mask(steps, typical))
+
+
 def sampling_interval(positions: np.ndarray) -> float:
     """The nominal sampling interval (m) of sorted reading positions (m): the mean step, each gap
     (a step over :data:`GAP_STEPS` times the median step, in a file regular apart from its gaps:

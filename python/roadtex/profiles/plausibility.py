@@ -200,6 +200,51 @@ def implausible_surface(heights: np.ndarray, dx: float, name: str, *, interval_s
             else "no valid reading")
 
 
+#: The widest plausible surface (m): a lane is 3.5 to 4 m wide and texture scanners' swaths are
+#: narrower. Rows spread wider than this are a spacing across in the wrong unit (dy = 1 for 1 mm).
+PLAUSIBLE_MAX_WIDTH = 5.0
+#: The finest plausible spacing across (m): 1 um, as the job's finest --dx (a header's 1e-9 m
+#: increment would make rows 1 nm apart).
+PLAUSIBLE_MIN_DY = 1e-6
+
+
+def implausible_across(dy: float, rows: int, name: str, *, tile_length: float | None = None) -> str | None:
+    """Why a surface's spacing across the road ``dy`` (m, between its ``rows`` rows) cannot be a
+    road texture scan, or None. Coarse rows are not refused for being coarse (multi-laser arrays
+    space their lines 10 to 100 mm apart; a certain unit is never second-guessed): only rows
+    further apart than the longest texture wavelength (:data:`TEXTURE_MAX_WAVELENGTH`, 0.5 m) or
+    than the areal model's tile (``tile_length``, m: its elements would be longer across than the
+    tile along; a 1 m spacing on 1 mm readings ran past 100 s), a surface wider than
+    :data:`PLAUSIBLE_MAX_WIDTH`, or rows finer than :data:`PLAUSIBLE_MIN_DY`: a dy in mm given as
+    m, or a header's wrong increment."""
+    if not (np.isfinite(dy) and dy > 0):
+        return f"{name}: the spacing across the road dy = {dy!r} m is not a positive number"
+    if dy < PLAUSIBLE_MIN_DY:
+        return (f"{name}: its {rows} rows across the road are {dy:.4g} m apart, finer than {PLAUSIBLE_MIN_DY:g} m (1 um): "
+                "not a road texture scan (a file's wrong increment across?)")
+    width = rows * dy
+    limits = [(TEXTURE_MAX_WAVELENGTH, "the longest texture wavelength")]
+    if tile_length is not None:
+        limits.append((tile_length, "the tile length (--segment-length)"))
+    too_far = [f"{what} ({limit:g} m)" for limit, what in limits if dy > limit]
+    if not too_far and width <= PLAUSIBLE_MAX_WIDTH:
+        return None
+    why = (f"further apart than {' and '.join(too_far)}" if too_far
+           else f"{width:.4g} m wide in all, wider than a lane ({PLAUSIBLE_MAX_WIDTH:g} m)")
+    return (f"{name}: its {rows} rows across the road are {dy:.4g} m apart, {why}: not a road texture scan "
+            "(a dy in millimetres given as metres, or a file's wrong increment across?)")
+
+
+def warn_if_implausible_across(dy: float, rows: int, name: str, *, stacklevel: int = 3) -> None:
+    """Warns (ImplausibleTextureWarning) when :func:`implausible_across` refuses ``dy``; silent
+    inside :func:`judged_once` (the bulk job judges it with the tile length and refuses the run)."""
+    if _JUDGED.get():
+        return
+    reason = implausible_across(dy, rows, name)
+    if reason is not None:
+        warnings.warn(f"{reason} Computing as given.", ImplausibleTextureWarning, stacklevel=stacklevel)
+
+
 def may_hold_codes(rows: np.ndarray) -> bool:
     """Whether any row of ``rows`` (m) spans more than :data:`OUTLIER_MIN_DISTANCE` (NaN aside):
     only then can :func:`~roadtex.profiles.conditioning.gross_outliers` find one (a reading is an

@@ -43,6 +43,7 @@ from typing import Any
 
 import polars as pl
 
+from roadtex.errors import InvalidInputError
 from roadtex.report.data import (
     MM,
     PRESSURE_DB,
@@ -336,6 +337,20 @@ th{background:#f0f0f0}code{background:#f4f4f4}.warning{color:#8a1c00}td:first-ch
 .conditioning td:last-child{text-align:left}"""
 
 
+def read_benchmark(path: Path) -> dict[str, Any]:
+    """The JSON object ``benches/speed_vs_error.py --json`` writes (``rows``: a list of objects), or
+    an InvalidInputError naming the file (not JSON, not UTF-8, not such an object)."""
+    try:
+        stored = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InvalidInputError(f"benchmark {path.name}: not readable JSON ({type(exc).__name__}: "
+                                f"{str(exc)[:120]})") from None
+    if not isinstance(stored, dict) or not isinstance(stored.get("rows", []), list):
+        raise InvalidInputError(f"benchmark {path.name}: expected an object with a list of rows (benches/speed_vs_error.py "
+                                f"--json writes one), got {type(stored).__name__}")
+    return stored
+
+
 def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathLike[str] | None = None,
                  benchmark: str | os.PathLike[str] | None = None, title: str = "roadtex report") -> Report:
     """Draws the seed's figures and the job's tables (failed runs included) into one self-contained HTML report.
@@ -360,7 +375,7 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
     figures_dir.mkdir(parents=True, exist_ok=True)
     options = results.options
     benchmark_path = Path(benchmark) if benchmark is not None else results.root / "benchmark.json"
-    bench_rows = json.loads(benchmark_path.read_text(encoding="utf-8")) if benchmark_path.exists() else None
+    bench_rows = read_benchmark(benchmark_path) if benchmark_path.exists() else None
     plt = pyplot()
     figures, regressions = draw_figures(results, bench_rows)
     numbered = captions(list(figures), {"setting_speed_vs_error": pilot_state(results) or ""})

@@ -62,9 +62,10 @@ from typing import Literal, Sequence
 import numpy as np
 import polars as pl
 
-from roadtex._checks import positive
+from roadtex._checks import positive, spacing_of
 from roadtex.errors import InvalidInputError
 from roadtex.profiles.plausibility import warn_if_implausible_texture
+from roadtex.profiles.profile import Profile
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.bands import (
     BLOCK_VALUES,
@@ -127,15 +128,17 @@ class BandLevels:
         return frame.filter(pl.col("reported")) if reported_only else frame
 
 
-def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, kind: BandKind = "third_octave",
+def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: float | None = None, *, kind: BandKind = "third_octave",
                 reference: float = REFERENCE_TEXTURE, periodic: bool = False, window: Window | None = None,
                 detrend: Detrend | None = None, method: Method = "dft") -> BandLevels:
     """Band levels of many signals at once (vectorised: by blocks of rows; DFT then band sums, or a
     filter bank).
 
     Args:
-        values: 2-D array, one signal (profile heights in m, or pressures in Pa) per row, N >= 8 points.
-        dx: sampling interval (m).
+        values: 2-D array, one signal (profile heights in m, or pressures in Pa) per row, N >= 8 points;
+            or a :class:`~roadtex.Profile` (one signal, equally spaced, no drop-outs), which carries its dx.
+        dx: sampling interval (m); required with an array (with a Profile it may be left out; given,
+            it must be the Profile's).
         kind: "third_octave" or "octave".
         reference: level reference in the signal's unit (default 1e-6 m, for texture).
         periodic: True for signals that repeat with period N dx (periodic contact-model output): exact
@@ -165,8 +168,11 @@ def band_levels(values: np.ndarray | Sequence[Sequence[float]], dx: float, *, ki
     if method == "filter" and window is not None:
         raise InvalidInputError("window applies only to method='dft': the filter method runs the band filters "
                                 "along the whole signal, unwindowed")
-    signals = check_signals(values, "values", 2)
-    dx = positive(dx, "dx", "metres")
+    given, dx_given, _ = spacing_of(values, dx, "values")
+    if given is not values:   # a Profile: one signal
+        given = np.asarray(given, dtype=np.float64)[None, :]
+    signals = check_signals(given, "values", 2)
+    dx = positive(dx_given, "dx", "metres")
     reference = positive(reference, "reference", "the signal's unit")
     window, detrend = window_and_detrend(bool(periodic), window, detrend)
     if reference == REFERENCE_TEXTURE:  # texture in metres: catch heights given in mm
@@ -262,8 +268,9 @@ def _settled_table(table: pl.DataFrame, measured: np.ndarray, kind: BandKind) ->
     )
 
 
-def _levels_frame(values: object, dx: float, name: str, kind: BandKind, reference: float, periodic: bool,
+def _levels_frame(values: object, dx: float | None, name: str, kind: BandKind, reference: float, periodic: bool,
                   window: Window | None, detrend: Detrend | None, method: Method) -> pl.DataFrame:
+    values, dx, _ = spacing_of(values, dx, name)
     signal = check_signals(values, name, 1)
     result = band_levels(signal[None, :], dx, kind=kind, reference=reference, periodic=periodic,
                          window=window, detrend=detrend, method=method)
@@ -271,14 +278,16 @@ def _levels_frame(values: object, dx: float, name: str, kind: BandKind, referenc
                                      pl.Series("level_db", result.levels[0]))
 
 
-def third_octave_levels(heights: np.ndarray | Sequence[float], dx: float, *, reference: float = REFERENCE_TEXTURE,
+def third_octave_levels(heights: Profile | np.ndarray | Sequence[float], dx: float | None = None, *, reference: float = REFERENCE_TEXTURE,
                         periodic: bool = False, window: Window | None = None,
                         detrend: Detrend | None = None, method: Method = "dft") -> pl.DataFrame:
     """One-third-octave texture spectrum of one profile (ISO 13473-4, DFT or filter method).
 
     Args:
-        heights: profile heights (m), N >= 8 points, no NaN (interpolate drop-outs first).
-        dx: sampling interval (m).
+        heights: profile heights (m), N >= 8 points, no NaN (interpolate drop-outs first); or a
+            :class:`~roadtex.Profile` (equally spaced, no drop-outs), which carries its dx.
+        dx: sampling interval (m); required with an array (with a Profile it may be left out;
+            given, it must be the Profile's).
         reference: level reference (m), default 1e-6 m.
         periodic: False (default) for a measured profile: linear detrend and Hann window. True for a
             periodic signal such as the enveloped profile of the periodic contact model: exact DFT.
@@ -292,7 +301,7 @@ def third_octave_levels(heights: np.ndarray | Sequence[float], dx: float, *, ref
     return _levels_frame(heights, dx, "heights", "third_octave", reference, periodic, window, detrend, method)
 
 
-def octave_levels(heights: np.ndarray | Sequence[float], dx: float, *, reference: float = REFERENCE_TEXTURE,
+def octave_levels(heights: Profile | np.ndarray | Sequence[float], dx: float | None = None, *, reference: float = REFERENCE_TEXTURE,
                   periodic: bool = False, window: Window | None = None,
                   detrend: Detrend | None = None, method: Method = "dft") -> pl.DataFrame:
     """Octave-band texture spectrum of one profile, 500 mm to 0.5 mm; as :func:`third_octave_levels`.

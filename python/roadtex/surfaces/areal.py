@@ -1,4 +1,4 @@
-"""Areal texture parameters of ISO 25178-2:2012 (height and hybrid parameters) of a surface or tile.
+"""Areal texture parameters of ISO 25178-2 (height and hybrid parameters) of a surface or tile.
 
 Filter settings, stated because ISO 25178 parameters mean nothing without them:
 
@@ -8,14 +8,22 @@ Filter settings, stated because ISO 25178 parameters mean nothing without them:
   those of the surface as sampled (the "primary" surface with its plane removed), limited at short
   wavelengths by the data's own spacing and at long ones by the area's extent. A tile of the bulk
   job already had its plane removed (:class:`~roadtex.surfaces.tiles.Tiles`).
-- Slopes (Sdq, Sdr) by central differences inside the grid and one-sided differences on its edges
-  (:func:`numpy.gradient`), at the spacings ``dx`` along and ``dy`` across.
+- Slopes (Sdq, ISO 25178-2:2021 clause 4.4.2; Sdr, clause 4.4.3; clauses 4.3.1 and 4.3.2 of the
+  2012 edition): the standard defines them with the continuous gradient. Its discrete form here
+  is the two-point difference between neighbouring readings, (z[i, j+1] - z[i, j]) / dx along
+  and (z[i+1, j] - z[i, j]) / dy across, at every point with both forward neighbours: the
+  gradient of the surface joined by straight lines between readings (the model grid's "linear"
+  road), the discrete Sdq and Sdr of Stout et al. (1993, EUR 15178 EN, the areal parameters' origin)
+  and SurfaceTopography's ``rms_gradient`` default. At scanner resolution the choice matters: a
+  wavelength of ``n`` samples has its slopes scaled by sin(pi/n)/(pi/n) by two-point differences
+  (-10 % at 4 samples) and by sin(2 pi/n)/(2 pi/n) by central differences (-36 %), which this
+  module used before.
 
 Definitions (discrete, the integrals of ISO 25178-2 as means over the grid's valid points z):
 Sa = mean|z|, Sq = sqrt(mean z^2), Ssk = mean z^3 / Sq^3, Sku = mean z^4 / Sq^4, Sp = max z,
 Sv = |min z|, Sz = Sp + Sv, Sdq = sqrt(mean(zx^2 + zy^2)), Sdr = mean(sqrt(1 + zx^2 + zy^2) - 1)
 (a ratio: 0.01 is 1 %). Heights in m, Sdq and Sdr dimensionless. Drop-outs (NaN) are left out of
-every mean; a slope needs both its neighbours.
+every mean; a slope needs the point and both its forward neighbours.
 """
 
 from __future__ import annotations
@@ -64,7 +72,8 @@ def areal_parameters(surface: object, dx: float | None = None, dy: float | None 
         Sku are NaN on a flat surface (Sq no more than rounding of the heights).
 
     Raises:
-        InvalidInputError: not a 2-D grid of at least 2 x 2 points, no spacing, or no valid point.
+        InvalidInputError: not a 2-D grid of at least 2 x 2 points, no spacing, an infinite height,
+            or no valid point.
     """
     heights = getattr(surface, "heights", surface)
     dx = getattr(surface, "dx", dx)
@@ -75,6 +84,12 @@ def areal_parameters(surface: object, dx: float | None = None, dy: float | None 
     z = np.array(heights, dtype=np.float64)
     if z.ndim != 2 or min(z.shape) < 2:
         raise InvalidInputError(f"areal parameters need a 2-D grid of at least 2 x 2 heights, got shape {z.shape}")
+    infinite = np.isinf(z)
+    if infinite.any():
+        first = np.unravel_index(int(np.argmax(infinite)), z.shape)
+        raise InvalidInputError(f"heights hold {int(infinite.sum())} infinite value(s) (the first at "
+                                f"{tuple(int(i) for i in first)}): a height is a finite number of metres, or NaN for "
+                                "a drop-out")
     if not np.isfinite(z).any():
         raise InvalidInputError("areal parameters need at least one valid (finite) height")
     # what is left of a plane after removing it is rounding: at most a few ulps of the heights
@@ -87,7 +102,9 @@ def areal_parameters(surface: object, dx: float | None = None, dy: float | None 
     flat = sq <= rounding
     ssk = float("nan") if flat else float(np.mean(valid ** 3) / sq ** 3)
     sku = float("nan") if flat else float(np.mean(valid ** 4) / sq ** 4)
-    zy, zx = np.gradient(z, dy, dx)
+    # two-point differences to the forward neighbours (the module docstring), on the (ny-1, nx-1) points having both
+    zx = np.diff(z, axis=1)[:-1, :] / dx
+    zy = np.diff(z, axis=0)[:, :-1] / dy
     slope2 = zx ** 2 + zy ** 2
     slope2 = slope2[np.isfinite(slope2)]
     sp, sv = float(valid.max()), float(-valid.min())

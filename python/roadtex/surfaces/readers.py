@@ -14,7 +14,12 @@ import polars as pl
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, MissingDependencyError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import format_number
-from roadtex.profiles.plausibility import set_distance_unit, stated_distance_unit, warn_if_implausible_texture
+from roadtex.profiles.plausibility import (
+    set_distance_unit,
+    stated_distance_unit,
+    warn_if_implausible_across,
+    warn_if_implausible_texture,
+)
 from roadtex.profiles.profile import MAX_MAGNITUDE
 from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
@@ -152,7 +157,9 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
         ImplausibleTextureWarning: heights or spacings that cannot be a road texture in metres
             (millimetres read as metres or as micrometres, distances in millimetres read as
             metres), judged along each row without drop-out codes, as :func:`roadtex.read_profile` does;
-            a spacing dx above 5 mm only where its unit is assumed (a ``.npy``'s or a given ``dx``).
+            a spacing dx above 5 mm only where its unit is assumed (a ``.npy``'s or a given ``dx``);
+            rows across further apart than 0.5 m or spread over more than 5 m
+            (:func:`~roadtex.profiles.plausibility.implausible_across`), whatever the unit.
         CoarseSamplingWarning: dx above 5 mm whose unit is certain (OpenCRG, which is in metres by
             definition, or a long table's positions with their unit stated or given): read as it is.
 
@@ -186,6 +193,7 @@ def read_surface(path: str | Path, format: str | None = None, *, dx: float | Non
     # as read_profile: heights or spacings in the wrong unit warn (the bulk job refuses the run)
     warn_if_implausible_texture(surface.heights, surface.dx, name, stacklevel=3, row="surface row", measured=True,
                                 stated=stated_distance_unit(surface.metadata))
+    warn_if_implausible_across(surface.dy, surface.shape[0], name, stacklevel=3)
     return surface
 
 
@@ -401,6 +409,7 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ProfileFormatError(f"{name}: not a readable OpenCRG file: {message}") from None
     v = np.asarray(grid.v, dtype=np.float64)
+    check_crg_header(name, header, np.asarray(grid.u, dtype=np.float64), v, float(du))
     if v.size > 1:
         steps = np.diff(v)
         if np.ptp(steps) > GRID_TOLERANCE * float(np.mean(steps)):
@@ -417,6 +426,50 @@ def read_crg(path: Path, name: str, options: dict) -> Surface:
     # OpenCRG is in metres by definition; a dx given instead of the file's increment is a bare number
     set_distance_unit(metadata, "m (OpenCRG)" if options.get("dx") is None else None)
     return finish(name, "crg", heights, dx, dy, metadata, [], float(grid.u[0]), float(v[0]))
+
+
+def check_crg_header(name: str, header: object, u: np.ndarray, v: np.ndarray, du: float) -> None:
+    """Refuses an OpenCRG header that contradicts its data or itself, naming both figures.
+
+    The OpenCRG library places the data by the header's start and increment and ignores the ends
+    it states (``reference_line_end_u``, ``long_section_v_left``) and the increment the U channel
+    of ``$KD_DEFINITION`` repeats: a wrong increment (1e-9 m), a truncated data section or a sign
+    slip would be read as stated, without a word. Each end stated must be where the number of
+    cross sections (long sections) at the increment puts the last one, within half an increment."""
+    road = getattr(header, "road", None) or {}
+
+    def stated(key: str) -> float | None:
+        value = road.get(key)
+        return float(value) if isinstance(value, (int, float)) else None
+
+    if not (np.isfinite(du) and du > 0):
+        raise ProfileFormatError(f"{name}: reference_line_increment is {du:g} m: the spacing along the road must be a "
+                                 "positive number of metres")
+    if not (np.isfinite(u[[0, -1]]).all() and np.isfinite(v).all()):
+        raise ProfileFormatError(f"{name}: the header places the data at u from {u[0]:g} to {u[-1]:g} m, v from "
+                                 f"{v[0]:g} to {v[-1]:g} m: not finite (reference_line_start_u, long_section_v_*)")
+    end_u = stated("reference_line_end_u")
+    if end_u is not None and abs(end_u - u[-1]) > du / 2:
+        raise ProfileFormatError(
+            f"{name}: the header contradicts its data: reference_line_end_u is {end_u:g} m, but its {u.size} cross "
+            f"sections from {u[0]:g} m at reference_line_increment {du:g} m end at {u[-1]:g} m (a truncated data "
+            "section, or a wrong increment or end)")
+    channel_u = next((c for c in getattr(header, "channels", ()) if getattr(c, "kind", "") == "U"), None)
+    extra = getattr(channel_u, "extra", ())
+    if len(extra) >= 2 and is_number(str(extra[1]).strip()) and abs(float(extra[1]) - du) > 1e-6 * du:
+        raise ProfileFormatError(f"{name}: the header contradicts itself: reference_line_increment is {du:g} m, the "
+                                 f"U channel's increment ($KD_DEFINITION) {float(extra[1]):g} m")
+    if v.size > 1:
+        steps = np.diff(v)
+        if not (steps > 0).all():
+            raise ProfileFormatError(f"{name}: the long sections' v runs from {v[0]:g} to {v[-1]:g} m, not increasing "
+                                     "from right to left (long_section_v_increment must be positive)")
+        v_left = stated("long_section_v_left")
+        if v_left is not None and abs(v_left - v[-1]) > float(np.mean(steps)) / 2:
+            raise ProfileFormatError(
+                f"{name}: the header contradicts its data: long_section_v_left is {v_left:g} m, but its {v.size} long "
+                f"sections from {v[0]:g} m at long_section_v_increment {float(np.mean(steps)):g} m end at "
+                f"{v[-1]:g} m")
 
 
 def read_x3p(path: Path, name: str, options: dict) -> Surface:

@@ -9,7 +9,7 @@ import numpy as np
 
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
-from roadtex.profiles.conditioning import format_number, missing_positions
+from roadtex.profiles.conditioning import distance_jumps, format_number, missing_positions
 from roadtex.profiles.plausibility import stated_distance_unit, warn_if_implausible_texture
 from roadtex.profiles.profile import MAX_MAGNITUDE, Profile
 from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
@@ -162,6 +162,16 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     positions, heights, note = sorted_samples(positions, heights, name)
     if positions.size < 2:
         raise ProfileFormatError(f"{name}: fewer than 2 distinct positions")
+    jumps = distance_jumps(positions)
+    if jumps.size:   # before the interval is taken from the steps: a jump is no interval and no unit slip
+        i = int(jumps[0])
+        typical = float(np.median(np.diff(positions)))
+        raise ProfileFormatError(
+            f"{name}: the distances jump by {format_number(positions[i + 1] - positions[i])} m between readings "
+            f"{i + 1} and {i + 2} by distance ({format_number(positions[i])} m to {format_number(positions[i + 1])} m), "
+            f"where the readings are {format_number(typical)} m apart ({jumps.size} such jump(s)): two runs joined in "
+            "one file, or a corrupt distance, not a unit mistake. Split the file at the jump (rows missing over a "
+            "stretch no longer than the file's readings are read as drop-outs)")
     own = nominal_dx(positions)
     # (only a dx the caller gave: one stored by write_profile reads back as written)
     if options.get("dx") is not None and dx is not None and abs(positive(dx, "dx") - own) > DX_CONFLICT * own:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import re
 
 import numpy as np
@@ -10,6 +9,7 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.npy import stored_record
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
     DROPOUT_TOKENS,
@@ -161,10 +161,8 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         skip += 1
         body = text.lstrip("#").strip()
         if body.startswith(ROADTEX_TAG + ":"):
-            try:
-                stored = json.loads(body[len(ROADTEX_TAG) + 1:])
-            except json.JSONDecodeError as exc:
-                raise ProfileFormatError(f"{name}: damaged {ROADTEX_TAG} header line: {exc}") from None
+            stored = stored_record(body[len(ROADTEX_TAG) + 1:], lambda why: ProfileFormatError(
+                f"{name}: damaged {ROADTEX_TAG} header line: {why}"))
             metadata.update(stored.get("metadata", {}))
             history.extend(stored.get("history", []))
             if stored.get("dx") is not None and options.get("dx") is None:

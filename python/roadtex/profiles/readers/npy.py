@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -79,16 +80,62 @@ def read_sidecar(path: Path, options: dict, keys: tuple[str, ...]) -> tuple[dict
     options = dict(options)
     sidecar = sidecar_path(path)
     if sidecar.exists():
-        try:
-            stored = json.loads(sidecar.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ProfileFormatError(f"{sidecar.name}: damaged metadata file: {exc}") from None
+        stored = load_sidecar(sidecar)
         metadata.update(stored.get("metadata", {}))
         history.extend(stored.get("history", []))
         for key in keys:
             if options.get(key) is None:
                 options[key] = stored.get(key)
     return metadata, history, options
+
+
+#: The largest sidecar read (bytes): spacings, units, metadata and a history are a few kB.
+MAX_SIDECAR_BYTES = 2**20
+
+
+def load_sidecar(sidecar: Path) -> dict:
+    """A sidecar's JSON object, its size checked before it is read (at most
+    :data:`MAX_SIDECAR_BYTES`) and its shape by :func:`stored_record`; anything else is a
+    ProfileFormatError naming the sidecar."""
+    def damaged(why: str) -> ProfileFormatError:
+        return ProfileFormatError(f"{sidecar.name}: damaged metadata file: {why}")
+
+    try:
+        size = sidecar.stat().st_size
+        if size > MAX_SIDECAR_BYTES:
+            raise damaged(f"{size} bytes, beyond the {MAX_SIDECAR_BYTES} a sidecar of spacings, units and metadata "
+                          "may hold (refused unread)")
+        text = sidecar.read_text(encoding="utf-8")
+    except (UnicodeDecodeError, OSError) as exc:
+        raise damaged(str(exc)[:200]) from None
+    return stored_record(text, damaged)
+
+
+def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> dict:
+    """The record roadtex stores with a file (a ``.npy``'s sidecar, a CSV's ``# roadtex-profile:``
+    line, a Parquet file's key-value metadata) as a dict, its shape checked: an object whose
+    ``metadata`` is an object (any JSON values, as :func:`~roadtex.write_profile` writes them),
+    whose ``history`` is a list of text and whose units are text. ``damaged(why)`` makes the error
+    naming the file (before: dict's and json's own exceptions, or a history string split into
+    characters)."""
+    try:
+        stored = json.loads(text)
+    except ValueError as exc:
+        raise damaged(str(exc)[:200]) from None
+    except RecursionError:
+        raise damaged("nested too deeply") from None
+    if not isinstance(stored, dict):
+        raise damaged(f"a JSON object is expected (dx, dy, height_unit, metadata, history), got {type(stored).__name__}")
+    meta = stored.get("metadata", {})
+    if not isinstance(meta, dict):
+        raise damaged(f"'metadata' must be an object, got {type(meta).__name__}")
+    history = stored.get("history", [])
+    if not isinstance(history, list) or not all(isinstance(line, str) for line in history):
+        raise damaged("'history' must be a list of text lines")
+    for key in ("height_unit", "distance_unit"):
+        if stored.get(key) is not None and not isinstance(stored[key], str):
+            raise damaged(f"{key!r} must be a unit's name ('m', 'mm', 'um'), got {stored[key]!r:.40}")
+    return stored
 
 
 def read_npy(path: Path, name: str, options: dict) -> ReadResult:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.delimited import ROADTEX_TAG
 from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.npy import stored_record
 from roadtex.profiles.readers.text import DISTANCE_NAMES, HEIGHT_NAMES, ReadResult, column_unit, pick_column, stated_unit
 
 
@@ -28,7 +28,8 @@ def read_parquet(path: Path, name: str, options: dict) -> ReadResult:
     history: list[str] = []
     options = dict(options)
     if ROADTEX_TAG in stored_meta:
-        stored = json.loads(stored_meta[ROADTEX_TAG])
+        stored = stored_record(stored_meta[ROADTEX_TAG], lambda why: ProfileFormatError(
+            f"{name}: damaged {ROADTEX_TAG} metadata: {why}"))
         metadata.update(stored.get("metadata", {}))
         history.extend(stored.get("history", []))
         if options.get("dx") is None:
