@@ -124,7 +124,10 @@ _SUBPACKAGES = ("archive", "budget", "comparisons", "models", "plot", "profiles"
 def __getattr__(name: str) -> Any:
     """A public name or subpackage, imported on first use and kept (PEP 562)."""
     if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
+        package = importlib.import_module(_LAZY[name])
+        # a module of the subpackage (reference, synthetic, pavements) is imported as `from
+        # package import name` would: it is an attribute only once something imported it
+        value = getattr(package, name) if hasattr(package, name) else importlib.import_module(f"{_LAZY[name]}.{name}")
     elif name in _SUBPACKAGES:
         value = importlib.import_module(f"roadtex.{name}")
     else:

@@ -55,6 +55,17 @@ def test_import_roadtex_is_light_and_every_public_name_is_there() -> None:
     assert (result["plot"], result["contact"]) == ("roadtex.plot", "roadtex.models.contact")
 
 
+def test_modules_reexported_by_subpackages_resolve_when_asked_for_first() -> None:
+    # roadtex.reference is roadtex.models.reference, an attribute of roadtex.models only once
+    # something imported it: asked for first (as tests/python/test_contact.py does), it must resolve
+    result = loaded_after("""
+        import json
+        from roadtex import reference, synthetic, pavements
+        print(json.dumps([m.__name__ for m in (reference, synthetic, pavements)]))
+    """)
+    assert result == ["roadtex.models.reference", "roadtex.profiles.synthetic", "roadtex.profiles.pavements"]
+
+
 def test_process_options_are_there_when_process_is_parsed() -> None:
     # the process sub-command's options are added when it is first used: parsing, help, usage
     from roadtex.cli import build_parser
