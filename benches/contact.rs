@@ -167,7 +167,7 @@ fn batch_1000(c: &mut Criterion) {
     let heights: Vec<f64> = (0..segments as u64).flat_map(|seed| self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, CUTOFF, seed)).collect();
     let options = SolverOptions { tol: 1e-6, ..Default::default() };
     let run = |threads: usize| {
-        solve_many(Segments { heights: &heights, len: n }, dx, &moduli, 0.5, 2e5, options, Some(threads), false).expect("batch")
+        solve_many(Segments { heights: &heights, len: n }, dx, &moduli, 0.5, 2e5, options, Some(threads), false, None).expect("batch")
     };
     let sols = run(1);
     let iterations: usize = sols.iter().map(|s| s.iterations).sum();

@@ -4,9 +4,10 @@
 
 use rayon::prelude::*;
 
+use crate::coarse_start::CoarseStart;
 use crate::continuation::next_modulus_guess;
 use crate::error::{invalid, ContactError, Result};
-use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, SolverOptions, Workspace};
+use crate::solver::{validate_problem, ContactSolution, ContactSolver, Material, Method, SolverOptions, Workspace};
 
 /// Segments of equal length N, stored row after row.
 #[derive(Clone, Copy, Debug)]
@@ -42,6 +43,12 @@ fn in_problem(error: ContactError, segment: usize, material: Material) -> Contac
 /// from the previous modulus's converged solution (see [`ContactSolver::solve_from`]; shifted
 /// down to a smaller contact set for a stiffer rubber, [`next_modulus_guess`]): fewer sweeps, results within the tolerance of cold solves and still bitwise the same whatever the
 /// thread count. Without it every result is bitwise that of a one-by-one solve.
+///
+/// With `coarse_start = Some(k)` (k >= 2), the segments are model grids k times finer than the
+/// data (every k-th point a reading): each segment's first modulus (every modulus without
+/// `warm_start`) starts from the data grid's answer, the readings solved first and their pressure
+/// prolonged ([`crate::coarse_start`]). Results meet the tolerance by the same test and are
+/// bitwise the same whatever the thread count.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_many(
     segments: Segments<'_>,
@@ -52,6 +59,7 @@ pub fn solve_many(
     options: SolverOptions,
     threads: Option<usize>,
     warm_start: bool,
+    coarse_start: Option<usize>,
 ) -> Result<Vec<ContactSolution>> {
     if segments.len == 0 || segments.heights.is_empty() {
         return invalid("segments is empty: give a 2-D array with one profile per row");
@@ -67,18 +75,34 @@ pub fn solve_many(
         validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
     }
     let solver = ContactSolver::new(segments.len, dx, options)?;
+    // The direct method ignores initial pressures: no coarse level to solve for it.
+    let coarse = match coarse_start {
+        Some(k) if options.method == Method::ConjugateGradient => CoarseStart::new(segments.len, dx, k, options)?,
+        Some(0) => return invalid("coarse_start must be a whole number of at least 1 (the model grid's refinement k)"),
+        _ => None,
+    };
     let jobs = segments.count() * materials.len();
+    // The initial pressure of a solve without a previous modulus to start from: the data grid's
+    // answer prolonged, or None (cold).
+    let first_guess = |workspaces: &mut (Workspace, Workspace), s: usize, material: Material| -> Result<Option<Vec<f64>>> {
+        let Some(coarse) = coarse.as_ref() else { return Ok(None) };
+        let solution =
+            coarse.solve(&mut workspaces.1, segments.row(s), material, mean_pressure, None).map_err(|e| in_problem(e, s, material))?;
+        Ok(Some(coarse.prolong(&solution.pressure)))
+    };
     let run = || {
         if warm_start {
             // One job per segment, its moduli in the order given, each started from the last.
             let per_segment = (0..segments.count())
                 .into_par_iter()
-                .map_init(Workspace::default, |workspace, s| {
+                .map_init(Default::default, |workspaces: &mut (Workspace, Workspace), s| {
                     let mut chain: Vec<ContactSolution> = Vec::with_capacity(materials.len());
                     for (m, &material) in materials.iter().enumerate() {
-                        let guess =
-                            chain.last().filter(|c| c.converged).map(|c| next_modulus_guess(&c.pressure, materials[m - 1], material));
-                        let solution = solver.solve_from(workspace, segments.row(s), material, mean_pressure, guess.as_deref());
+                        let guess = match chain.last() {
+                            Some(last) if last.converged => Some(next_modulus_guess(&last.pressure, materials[m - 1], material)),
+                            _ => first_guess(workspaces, s, material)?,
+                        };
+                        let solution = solver.solve_from(&mut workspaces.0, segments.row(s), material, mean_pressure, guess.as_deref());
                         chain.push(solution.map_err(|e| in_problem(e, s, material))?);
                     }
                     Ok(chain)
@@ -89,9 +113,12 @@ pub fn solve_many(
         (0..jobs)
             .into_par_iter()
             // One workspace per rayon work item, reused across its jobs: results never depend on it.
-            .map_init(Workspace::default, |workspace, job| {
+            .map_init(Default::default, |workspaces: &mut (Workspace, Workspace), job| {
                 let (s, m) = (job / materials.len(), job % materials.len());
-                solver.solve_in(workspace, segments.row(s), materials[m], mean_pressure).map_err(|e| in_problem(e, s, materials[m]))
+                let guess = first_guess(workspaces, s, materials[m])?;
+                solver
+                    .solve_from(&mut workspaces.0, segments.row(s), materials[m], mean_pressure, guess.as_deref())
+                    .map_err(|e| in_problem(e, s, materials[m]))
             })
             .collect::<Result<Vec<_>>>()
     };

@@ -15,6 +15,7 @@
 
 pub mod batch;
 pub mod clapp;
+pub mod coarse_start;
 pub mod compliance;
 pub mod continuation;
 pub mod envelope;

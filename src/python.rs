@@ -139,7 +139,7 @@ type SolvedMany<'py> = (
 
 /// Every (segment, modulus) pair in parallel. Arrays are indexed [segment, modulus, ...].
 #[pyfunction]
-#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false))]
+#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false, coarse_start=None))]
 #[allow(clippy::too_many_arguments)]
 fn solve_many<'py>(
     py: Python<'py>,
@@ -155,6 +155,7 @@ fn solve_many<'py>(
     max_iterations: usize,
     threads: Option<usize>,
     warm_start: bool,
+    coarse_start: Option<usize>,
 ) -> PyResult<SolvedMany<'py>> {
     guarded(py, || {
         let options = options(periodic, kernel, method, tol, max_iterations).map_err(|e| to_py_err(py, e))?;
@@ -165,7 +166,7 @@ fn solve_many<'py>(
         let m = moduli.len();
         let segments = Segments { heights: &heights, len };
         let solutions = py
-            .detach(|| solve_many_core(segments, dx, &moduli, poisson, mean_pressure, options, threads, warm_start))
+            .detach(|| solve_many_core(segments, dx, &moduli, poisson, mean_pressure, options, threads, warm_start, coarse_start))
             .map_err(|e| to_py_err(py, e))?;
         let mut pressure = Vec::with_capacity(count * m * len);
         let mut envelope = Vec::with_capacity(count * m * len);

@@ -16,8 +16,8 @@ fn long_profiles_give_the_same_bits_on_one_and_two_threads() {
     let segments = Segments { heights: &heights, len: n };
     let options = SolverOptions { tol: 1e-8, ..Default::default() };
     let moduli = [1e6, 1e7];
-    let one = solve_many(segments, dx, &moduli, 0.5, 2e5, options, Some(1), true).unwrap();
-    let two = solve_many(segments, dx, &moduli, 0.5, 2e5, options, Some(2), true).unwrap();
+    let one = solve_many(segments, dx, &moduli, 0.5, 2e5, options, Some(1), true, None).unwrap();
+    let two = solve_many(segments, dx, &moduli, 0.5, 2e5, options, Some(2), true, None).unwrap();
     assert_eq!(one, two);
     for solution in &one {
         assert!(solution.converged && solution.residual <= 1e-8);
@@ -40,8 +40,8 @@ fn a_long_wavy_profile_reaches_westergaards_pressure_on_one_and_two_threads() {
     let heights: Vec<f64> = x.iter().map(|&x| amplitude * (2.0 * std::f64::consts::PI * x / wavelength).cos()).collect();
     let segments = Segments { heights: &heights, len: n };
     let options = SolverOptions { tol: 1e-10, ..Default::default() };
-    let one = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(1), false).unwrap();
-    let two = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(2), false).unwrap();
+    let one = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(1), false, None).unwrap();
+    let two = solve_many(segments, dx, &[2.5e6], 0.5, exact.mean_pressure, options, Some(2), false, None).unwrap();
     assert_eq!(one, two);
     assert!(one[0].converged);
     let exact_p: Vec<f64> = x.iter().map(|&x| exact.element_pressure(x, dx)).collect();

@@ -6,7 +6,9 @@ import argparse
 import logging
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 
 def refused_rubber(command: str, moduli: list[float], pressure: float, remedy: str = "") -> bool:
@@ -351,6 +353,33 @@ def unrecognized(parser: argparse.ArgumentParser, unknown: list[str]) -> None:
     parser.error(f"unrecognized arguments: {' '.join(unknown)}{' (' + '; '.join(hints) + ')' if hints else ''}")
 
 
+class CommandParser(argparse.ArgumentParser):
+    """A sub-command's parser whose arguments ``complete`` adds when it is first used (parsed, or
+    its help or usage formatted): ``process``'s defaults come from ProcessingOptions, whose import
+    loads the whole job (polars, scipy), which ``roadtex --help`` and ``--version`` never need."""
+
+    def __init__(self, *args: Any, complete: Callable[[argparse.ArgumentParser], None] | None = None,
+                 **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._complete = complete
+
+    def completed(self) -> CommandParser:
+        """This parser with all its arguments (added now if they were not yet)."""
+        if self._complete is not None:
+            complete, self._complete = self._complete, None
+            complete(self)
+        return self
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        return super(CommandParser, self.completed()).parse_known_args(args, namespace)
+
+    def format_help(self) -> str:
+        return super(CommandParser, self.completed()).format_help()
+
+    def format_usage(self) -> str:
+        return super(CommandParser, self.completed()).format_usage()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``roadtex`` command's parser, with its sub-commands (the docs' CLI reference renders it)."""
     from roadtex._core import __version__
@@ -360,7 +389,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="roadtex", description="Tyre/road contact and texture envelopment.",
                                      allow_abbrev=False)
     parser.add_argument("-V", "--version", action="version", version=f"roadtex {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True)
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=CommandParser)
     d = commands.add_parser("demo", help="the main job on the built-in synthetic archive: process, then report",
                             allow_abbrev=False)
     d.add_argument("--out", default="roadtex-output", help="output folder (default roadtex-output)")
@@ -373,10 +402,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--benchmark", default=None, help="speed_vs_error.py --json rows for the speed figure")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(run=demo)
-    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)", allow_abbrev=False)
+    p = commands.add_parser("process", help="process an archive: manifest in, Parquet tables out (resumable)",
+                            allow_abbrev=False, complete=_add_processing_arguments)
     p.add_argument("manifest", help="manifest file (CSV or Parquet) listing the runs")
     p.add_argument("--out", required=True, help="output folder")
-    _add_processing_arguments(p)
     p.set_defaults(run=process_command)
     r = commands.add_parser("report", help="HTML report and figures of a processed archive", allow_abbrev=False)
     r.add_argument("results", help="the output folder of roadtex process")

@@ -111,6 +111,7 @@ def contact_many(
     max_iterations: int = 2000,
     threads: int | None = None,
     warm_start: bool = False,
+    coarse_start: int | None = None,
     raise_on_nonconvergence: bool = True,
 ) -> ContactBatch:
     """Solves :func:`contact` for every segment (row) and every modulus, in parallel.
@@ -128,6 +129,14 @@ def contact_many(
             the previous modulus's solution (its contact set is close): fewer iterations. Results
             then meet ``tol`` as usual but are no longer bitwise those of one-by-one calls (they
             stay bitwise the same whatever the thread count). Ignored by ``method="direct"``.
+        coarse_start: k when the segments are model grids ``k`` times finer than the data's (every
+            ``k``-th point a reading, :func:`roadtex.models.grid.refine_periodic`): each segment's
+            first modulus (every modulus without ``warm_start``) starts from the data grid's answer,
+            the readings solved first (to ``tol`` or 1e-4, whichever is looser) and their pressure
+            carried to the model grid linearly (mean pressure kept, p >= 0). Fewer iterations on
+            the fine grid; results meet ``tol`` by the same test, within it of cold solves, and
+            stay bitwise the same whatever the thread count. The segment length must be a multiple
+            of ``k``; None or 1: no coarse start. Ignored by ``method="direct"``.
         Other arguments: as for :func:`contact`.
 
     Returns:
@@ -136,12 +145,14 @@ def contact_many(
     heights = as_float_array(segments, "segments", 2)
     moduli = moduli_array(youngs_modulus)
     threads = thread_count(threads)
+    coarse = None if coarse_start is None else positive_int(coarse_start, "coarse_start")
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
     warn_if_implausible_rubber(moduli, p_f)
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
+        coarse,
     )
     if raise_on_nonconvergence and not converged.all():
         bad = np.argwhere(~converged)
