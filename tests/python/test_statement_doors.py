@@ -6,7 +6,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import polars as pl
+import pytest
 
+from roadtex.budget.sampling import run_statement, sampling_statement
+from roadtex.errors import InvalidInputError
 from roadtex.report.data import Results
 from roadtex.report.sampling_section import sampling_table
 
@@ -33,3 +36,79 @@ def test_report_says_corrected_for_a_band_corrected_by_a_negative_bias() -> None
     uncorrected = sampling_table(results_with(bands.with_columns(pl.lit(None, dtype=pl.Float64)
                                                                  .alias("sampling_correction_db")), runs))
     assert set(uncorrected["corrected (dB)"]) == {"no"}
+
+
+@pytest.mark.parametrize("moduli, match", [
+    ([float("nan")], "positive, finite"), ([0.0], "positive, finite"), ([-2e6], "positive, finite"),
+    ([], "at least one modulus"), ([2e6, float("inf")], "positive, finite"), (["soft"], "moduli in Pa")])
+def test_sampling_statement_refuses_moduli_that_are_not(moduli, match) -> None:
+    # 0.3.0 answered NaN rows (NaN), another modulus' figures (0, -2 MPa: the nearest calibrated)
+    # or an error from polars' concat of nothing (an empty list)
+    with pytest.raises(InvalidInputError, match=match):
+        sampling_statement(1e-3, moduli, 8)
+
+
+def test_sampling_statement_refuses_an_unknown_level_and_a_bad_spot() -> None:
+    with pytest.raises(InvalidInputError, match="level must be 'enveloped' or 'pressure'"):
+        sampling_statement(1e-3, [2e6], 8, level="texture")   # 0.3.0: no rows, as if coarser than calibrated
+    for width in (float("nan"), -0.2e-3, 2e-3):
+        with pytest.raises(InvalidInputError, match="width"):
+            sampling_statement(1e-3, [2e6], 8, width=width)
+    with pytest.raises(InvalidInputError, match="n_segments"):
+        sampling_statement(1e-3, [2e6], float("nan"))
+
+
+def test_a_modulus_listed_twice_is_stated_once() -> None:
+    # the job joins the statement on (modulus, band): duplicated statement rows doubled bands.parquet's
+    once = sampling_statement(1e-3, [2e6], 8)
+    assert sampling_statement(1e-3, [2e6, 2e6], 8).equals(once)
+
+
+CENTRES = {b: 10.0 ** (-b / 10.0) for b in range(11, 29)}   # 80 mm to 1.6 mm: bands outside 2.5-40 mm too
+
+
+@pytest.mark.parametrize("settings, reason", [
+    ({"mean_pressure": 4e5}, "mean pressure of 0.2 MPa, not 0.4 MPa"),
+    ({"band_kind": "octave"}, "third-octave DFT"), ({"band_method": "filter"}, "third-octave DFT"),
+    ({"segment_length": 0.256}, "0.5 m segments, not 0.256 m")])
+def test_run_statement_says_why_it_states_nothing_and_that_a_correction_was_not_made(settings, reason) -> None:
+    arguments = {"file_dx": 1e-3, "dx_used": 1e-3, "length": 4.0, "segment_length": 0.5, "n_segments": 8,
+                 "youngs_moduli": [2e6, 1e7], "mean_pressure": 2e5, "band_kind": "third_octave", "band_method": "dft",
+                 "centre_wavelengths": CENTRES} | settings
+    for correct in (False, True):
+        rows, sampling, resolved = run_statement(**arguments, correct=correct)
+        assert rows.height == 2 * len(CENTRES) and sampling is None and resolved is None
+        assert rows["sampling_run_uncertainty_db"].null_count() == rows.height
+        notes = set(rows["sampling_note"].to_list())
+        assert len(notes) == 1 and reason in notes.pop()
+        said = rows["sampling_note"][0]
+        assert ("--sampling-correction asked for, not applied" in said) == correct
+
+
+def test_run_statement_notes_the_bands_and_samplings_it_cannot_state() -> None:
+    arguments = {"length": 4.0, "segment_length": 0.5, "n_segments": 8, "youngs_moduli": [2e6],
+                 "mean_pressure": 2e5, "band_kind": "third_octave", "band_method": "dft", "centre_wavelengths": CENTRES}
+    rows, sampling, _ = run_statement(1e-3, 1e-3, **arguments, correct=True)
+    assert sampling == pytest.approx(1e-3)
+    stated = rows.filter(pl.col("sampling_run_uncertainty_db").is_not_null())
+    assert sorted(stated["band"].to_list()) == list(range(14, 27)) and stated["sampling_note"].null_count() == 13
+    outside = rows.filter(pl.col("sampling_run_uncertainty_db").is_null())
+    assert sorted(outside["band"].to_list()) == [11, 12, 13, 27, 28]
+    assert all("outside the calibrated ones (bands 14 to 26)" in n and "not applied" in n for n in outside["sampling_note"])
+    coarse, sampling, resolved = run_statement(2e-3, 2e-3, **arguments)
+    assert sampling is None and resolved is None and coarse["sampling_run_uncertainty_db"].null_count() == coarse.height
+    assert "sampled every 2 mm, coarser than the calibration's 1 mm" in coarse["sampling_note"][0]
+
+
+def test_report_says_why_the_job_stated_nothing() -> None:
+    from roadtex.report.sampling_section import sampling_section
+
+    note = "no sampling statement: calibrated on third-octave DFT band levels (--sampling-correction asked for, not applied)"
+    bands = pl.DataFrame({"run_id": ["a"], "band": [26], "label": ["2.5"], "youngs_modulus": [2e6],
+                          "sampling_bias_db": [None], "sampling_correction_db": [None], "sampling_uncertainty_db": [None],
+                          "sampling_run_uncertainty_db": [None], "sampling_note": [note]},
+                         schema_overrides={c: pl.Float64 for c in ("sampling_bias_db", "sampling_correction_db",
+                                                                   "sampling_uncertainty_db", "sampling_run_uncertainty_db")})
+    runs = pl.DataFrame({"run_id": ["a"], "sampling_dx": [None]}, schema_overrides={"sampling_dx": pl.Float64})
+    text = sampling_section(results_with(bands, runs), lambda *a, **k: "")
+    assert "third-octave DFT band levels (--sampling-correction asked for, not applied)" in text

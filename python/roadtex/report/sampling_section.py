@@ -66,13 +66,19 @@ def sampling_section(results: Results, html_table: Callable[..., str]) -> str:
     drawn by the document's ``html_table``)."""
     table = sampling_table(results)
     if table.height == 0:
+        notes = (results.bands["sampling_note"].drop_nulls().unique().sort().to_list()
+                 if "sampling_note" in results.bands.columns else [])
+        if notes:   # the job said why (bands.parquet sampling_note)
+            return "<p>No sampling statement: " + html.escape("; ".join(n.removeprefix("no sampling statement: ")
+                                                                          for n in notes[:3])) + ".</p>"
         return ("<p>No sampling statement: the job's results have none (a roadtex before it, surface runs only, or "
                 "settings the calibration does not cover: it holds for 0.5 m segments, P = 0.2 MPa, third-octave "
                 "DFT levels and samplings up to 1 mm).</p>")
     runs = results.runs.filter(pl.col("sampling_dx").is_not_null())
     resolved = runs.group_by("contact_resolved_to").agg(pl.len().alias("n")).sort("contact_resolved_to", nulls_last=True)
     said = "; ".join(
-        (f"{n} run(s) down to {plain(v * MM, 3)} mm" if v is not None else f"{n} run(s) in no calibrated band")
+        (f"{n} run(s) down to {plain(v * MM, 3)} mm" if v is not None
+         else f"{n} run(s) in no band: not even the longest calibrated band is within {plain(RESOLVED_DB)} dB")
         for v, n in resolved.iter_rows())
     return ("<p>What the data's sampling cannot tell of the enveloped levels, apart from the numerical error above: "
             "the contact model converged on the readings still sees only the road they describe. Calibrated on the "
