@@ -8,7 +8,7 @@ from pathlib import Path
 import polars as pl
 import pytest
 
-from roadtex.budget.sampling import run_statement, sampling_statement
+from roadtex.budget.sampling import run_statement, sampling_statement, shipped_calibration
 from roadtex.errors import InvalidInputError
 from roadtex.report.data import Results
 from roadtex.report.sampling_section import sampling_table
@@ -112,3 +112,29 @@ def test_report_says_why_the_job_stated_nothing() -> None:
     runs = pl.DataFrame({"run_id": ["a"], "sampling_dx": [None]}, schema_overrides={"sampling_dx": pl.Float64})
     text = sampling_section(results_with(bands, runs), lambda *a, **k: "")
     assert "third-octave DFT band levels (--sampling-correction asked for, not applied)" in text
+
+
+def calibration_rows(bands_at: dict[tuple[float, float], list[int]]) -> pl.DataFrame:
+    """A calibration table whose bias is the band number / 100 dB at every (dx, E) of ``bands_at``."""
+    rows = [{"level": "enveloped", "dx": dx, "width": dx, "youngs_modulus": e, "band": b, "label": str(b),
+             "centre_wavelength": 10.0 ** (-b / 10.0), "bias_db": b / 100.0, "within_sd_db": 0.1,
+             "between_sd_db": 0.05, "bias_se_db": 0.05, "files": 3, "segments": 12, "between_floored": False}
+            for (dx, e), bands in bands_at.items() for b in bands]
+    return pl.DataFrame(rows, schema=shipped_calibration().schema)
+
+
+def test_interpolated_matches_bands_by_number_and_refuses_bands_it_cannot_match() -> None:
+    # a caller's table listing its bands in another order at one modulus: 0.3.0 blended row i of
+    # one modulus with row i of the other (sorted, so a missing band shifted every row after it)
+    same = calibration_rows({(1e-3, 2e6): [24, 25, 26], (1e-3, 1e7): [26, 25, 24]})
+    between = sampling_statement(1e-3, [4e6], 8, table=same)
+    assert dict(zip(between["band"], between["sampling_bias_db"])) == pytest.approx({24: 0.24, 25: 0.25, 26: 0.26})
+    shifted = calibration_rows({(1e-3, 2e6): [24, 25, 26], (1e-3, 1e7): [25, 26, 27]})
+    with pytest.raises(InvalidInputError, match=r"bands differ between E = 2e\+06 and 1e\+07 Pa.*\[24, 27\]"):
+        sampling_statement(1e-3, [4e6], 8, table=shifted)
+    samplings = calibration_rows({(0.5e-3, 2e6): [24, 25], (1e-3, 2e6): [25, 26]})
+    with pytest.raises(InvalidInputError, match=r"bands differ between dx = 0.0005 and 0.001 m"):
+        sampling_statement(0.7e-3, [2e6], 8, table=samplings)
+    twice = calibration_rows({(1e-3, 2e6): [24, 24, 25]})
+    with pytest.raises(InvalidInputError, match="band 24 twice"):
+        sampling_statement(1e-3, [2e6], 8, table=twice)

@@ -147,16 +147,38 @@ def shipped_calibration() -> pl.DataFrame:
         return pl.read_csv(path, comment_prefix="#", schema=CALIBRATION_SCHEMA)
 
 
+FIGURES = ("bias_db", "within_sd_db", "between_sd_db", "bias_se_db")
+
+
+def blend(low: pl.DataFrame, high: pl.DataFrame, t: float, what: str) -> pl.DataFrame:
+    """``low``'s rows with the :data:`FIGURES` ``(1 - t) low + t high``, matched by band number
+    (``what`` names the two sides in the refusal): a table whose two sides hold different or
+    repeated bands is refused, never blended position by position."""
+    for side in (low, high):
+        repeated = side["band"].is_duplicated()
+        if repeated.any():
+            raise InvalidInputError(f"the calibration holds band {side['band'].filter(repeated)[0]} twice at {what}")
+    only = sorted(set(low["band"].to_list()) ^ set(high["band"].to_list()))
+    if only:
+        raise InvalidInputError(f"the calibration's bands differ between {what}: band(s) {only} on one side only; "
+                                "a table must hold the same bands at every sampling and modulus")
+    other = high.select("band", *[pl.col(c).alias(f"{c}_high") for c in FIGURES])
+    return low.join(other, on="band", how="left", maintain_order="left").with_columns(
+        [(pl.col(c) * (1 - t) + pl.col(f"{c}_high") * t).alias(c) for c in FIGURES]).drop([f"{c}_high" for c in FIGURES])
+
+
 def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | None = None) -> pl.DataFrame | None:
     """The rows of ``table`` at sampling ``dx`` (m) and ``modulus`` (Pa), interpolated in log dx and
     log E (see the module), for interval averaging (``width`` None) or a spot ``width`` (m; the
-    samplings calibrated with that width); None coarser than the coarsest such sampling."""
+    samplings calibrated with that width); None coarser than the coarsest such sampling. Rows
+    are matched by band number (a table holding other bands at another sampling or modulus is
+    refused: :func:`blend`)."""
     rows = table.filter(pl.col("dx") == pl.col("width") if width is None else (pl.col("width") - width).abs() <= 1e-6 * width)
     samplings = np.unique(rows["dx"].to_numpy())
     if rows.is_empty() or dx > samplings.max() * (1 + 1e-6):
         return None
     moduli = np.unique(rows["youngs_modulus"].to_numpy())
-    columns = ["bias_db", "within_sd_db", "between_sd_db", "bias_se_db"]
+    columns = list(FIGURES)
 
     def at(sampling: float) -> pl.DataFrame:
         """Rows at one calibrated sampling, interpolated in log E."""
@@ -168,7 +190,7 @@ def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | 
         a = chosen.filter(pl.col("youngs_modulus") == moduli[lower]).sort("band")
         b = chosen.filter(pl.col("youngs_modulus") == moduli[upper]).sort("band")
         t = 0.0 if upper == lower else (np.log(e) - np.log(moduli[lower])) / (np.log(moduli[upper]) - np.log(moduli[lower]))
-        return a.with_columns([(pl.col(c) * (1 - t) + b[c] * t).alias(c) for c in columns])
+        return blend(a, b, t, f"E = {moduli[lower]:g} and {moduli[upper]:g} Pa (dx {sampling:g} m)")
 
     if dx <= REFERENCE_DX * (1 + 1e-6):
         return at(samplings.min()).with_columns([pl.lit(0.0).alias(c) for c in columns])
@@ -179,7 +201,7 @@ def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | 
     low_dx = REFERENCE_DX if upper == 0 else samplings[upper - 1]
     low = (high.with_columns([pl.lit(0.0).alias(c) for c in columns]) if upper == 0 else at(low_dx))
     t = (np.log(dx) - np.log(low_dx)) / (np.log(samplings[upper]) - np.log(low_dx))
-    return low.with_columns([(pl.col(c) * (1 - t) + high[c] * t).alias(c) for c in columns])
+    return blend(low, high, t, f"dx = {low_dx:g} and {samplings[upper]:g} m")
 
 
 def coverage_factor(terms: Sequence[np.ndarray], dofs: Sequence[float]) -> np.ndarray:
