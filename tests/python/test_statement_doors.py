@@ -5,11 +5,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import polars as pl
 import pytest
 
+from roadtex.archive.sections import section_index, section_table
 from roadtex.budget.sampling import run_statement, sampling_statement, shipped_calibration
 from roadtex.errors import InvalidInputError
+from roadtex.profiles import Profile, mpd
+from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.report.data import Results
 from roadtex.report.sampling_section import sampling_table
 
@@ -138,3 +142,30 @@ def test_interpolated_matches_bands_by_number_and_refuses_bands_it_cannot_match(
     twice = calibration_rows({(1e-3, 2e6): [24, 24, 25]})
     with pytest.raises(InvalidInputError, match="band 24 twice"):
         sampling_statement(1e-3, [2e6], 8, table=twice)
+
+
+def test_sections_chainage_runs_from_the_first_reading() -> None:
+    # a 1 mm file from 0 m: 0.3.0 gave -0.0005-9.9995 m, 9.9995-19.9995 m (the baselines' edge)
+    profile = synthetic_pavement("dense_asphalt", 20.05, 1e-3, seed=3)
+    table = section_table("r", mpd(profile), 10.0)
+    assert table["start"].to_list() == pytest.approx([0.0, 10.0], abs=1e-12)
+    assert table["end"].to_list() == pytest.approx([10.0, 20.0], abs=1e-12)
+    assert table["baselines"].to_list() == [100, 100]
+    moved = section_table("r", mpd(Profile.from_heights(profile.heights, 1e-3, start=123.4)), 10.0)
+    assert moved["start"].to_list() == pytest.approx([123.4, 133.4], abs=1e-9)
+
+
+def test_section_index_refuses_positions_outside_the_sections() -> None:
+    # 0.3.0 clipped a start 5 m past the run into its last section, one before it into the first
+    assert section_index(np.array([0.0, 9.99, 10.0, 19.5]), 0.0, 10.0, 2).tolist() == [0, 0, 1, 1]
+    assert section_index(np.array([-0.0004]), 0.0, 10.0, 2, tolerance=0.0005).tolist() == [0]
+    for wrong in (25.0, -3.0, float("nan")):
+        with pytest.raises(InvalidInputError, match="outside the run's 2 section"):
+            section_index(np.array([1.0, wrong]), 0.0, 10.0, 2)
+
+
+@pytest.mark.parametrize("length", [1e-6, 0.05, float("nan"), float("inf"), -10.0])
+def test_a_section_shorter_than_the_mpd_baseline_is_refused(length) -> None:
+    # 0.3.0 wrote a row per micrometre (4,000,000 rows for 4 m), none holding an MPD
+    with pytest.raises(InvalidInputError, match="at least the 100 mm MPD baseline"):
+        section_table("r", mpd(synthetic_pavement("dense_asphalt", 1.0, 1e-3, seed=3)), length)
