@@ -3,6 +3,7 @@ that changed or dropped a number without a word, or a refusal that was missing."
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -169,3 +170,22 @@ def test_a_section_shorter_than_the_mpd_baseline_is_refused(length) -> None:
     # 0.3.0 wrote a row per micrometre (4,000,000 rows for 4 m), none holding an MPD
     with pytest.raises(InvalidInputError, match="at least the 100 mm MPD baseline"):
         section_table("r", mpd(synthetic_pavement("dense_asphalt", 1.0, 1e-3, seed=3)), length)
+
+
+def test_parameters_json_is_strict_json_with_non_finite_numbers_named(tmp_path: Path) -> None:
+    # 0.3.0 wrote Infinity (worst_level_error_db of a run whose pilot picked a filled segment), which
+    # strict JSON readers refuse
+    from roadtex.archive.store import write_json
+
+    write_json(tmp_path / "parameters.json", {"plan": {"worst_level_error_db": float("inf"),
+                                                       "band_error_db": {"26": float("nan"), "25": 0.5},
+                                                       "bounds": (float("-inf"), np.float64("inf"))}})
+
+    def refuse(constant: str) -> None:
+        raise ValueError(f"not strict JSON: {constant}")
+
+    written = json.loads((tmp_path / "parameters.json").read_text(), parse_constant=refuse)
+    assert written["plan"] == {"worst_level_error_db": None, "band_error_db": {"26": None, "25": 0.5},
+                               "bounds": [None, None]}
+    assert written["non_finite"] == {"plan.worst_level_error_db": "inf", "plan.band_error_db.26": "nan",
+                                     "plan.bounds[0]": "-inf", "plan.bounds[1]": "inf"}
