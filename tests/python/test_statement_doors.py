@@ -10,8 +10,8 @@ import numpy as np
 import polars as pl
 import pytest
 
-from roadtex.archive.sections import section_index, section_table
-from roadtex.budget.sampling import run_statement, sampling_statement, shipped_calibration
+from roadtex.archive.sections import section_band_table, section_index, section_table
+from roadtex.budget.sampling import contact_resolved_to, run_statement, sampling_statement, shipped_calibration
 from roadtex.errors import InvalidInputError
 from roadtex.profiles import Profile, mpd
 from roadtex.profiles.pavements import synthetic_pavement
@@ -189,3 +189,62 @@ def test_parameters_json_is_strict_json_with_non_finite_numbers_named(tmp_path: 
                                "bounds": [None, None]}
     assert written["non_finite"] == {"plan.worst_level_error_db": "inf", "plan.band_error_db.26": "nan",
                                      "plan.bounds[0]": "-inf", "plan.bounds[1]": "inf"}
+
+
+# The hunt's cases (issue 38: the doors tried as an attacker would); each failed on the code before.
+
+@pytest.mark.parametrize("change, match", [
+    (lambda t: t.drop("bias_se_db"), r"lacks the column\(s\) \['bias_se_db'\]"),
+    (lambda t: t.drop("level"), r"lacks the column\(s\) \['level'\]"),
+    (lambda t: t.with_columns(pl.lit(float("nan")).alias("bias_db")), "not a finite number"),
+    (lambda t: t.with_columns(pl.lit(-1.0).alias("within_sd_db")), "negative scatter"),
+    (lambda t: t.with_columns(pl.lit(1).alias("files")), "at least 2 files"),
+    (lambda t: "calibration.csv", "must be a calibration")])
+def test_a_caller_table_is_checked_at_the_door(change, match) -> None:
+    # before: polars' ColumnNotFoundError, NaN rows, a statement from a negative scatter or one file
+    with pytest.raises(InvalidInputError, match=match):
+        sampling_statement(1e-3, [2e6], 3, table=change(shipped_calibration()))
+
+
+@pytest.mark.parametrize("arguments", [
+    {"dx": True}, {"n_segments": "3"}, {"n_segments": True}, {"youngs_moduli": [True]}, {"width": 0.3e-3}])
+def test_numbers_that_are_not_and_an_uncalibrated_spot_are_refused(arguments) -> None:
+    # before: True read as 1 m or 1 Pa, "3" as 3 segments, a 0.3 mm spot answered with no rows
+    given = {"dx": 1e-3, "youngs_moduli": [2e6], "n_segments": 3} | arguments
+    with pytest.raises(InvalidInputError):
+        sampling_statement(**given)
+
+
+def test_a_modulus_outside_the_calibration_says_whose_figures_it_has() -> None:
+    # the nearest calibrated modulus' figures, said in the row (before: without a word)
+    stated = sampling_statement(1e-3, [2e7, 2e6], 3)
+    outside = stated.filter(pl.col("youngs_modulus") == 2e7)
+    assert set(outside["sampling_note"]) == {"E = 20 MPa is outside the calibrated 1 to 10 MPa: the figures of 10 MPa"}
+    assert stated.filter(pl.col("youngs_modulus") == 2e6)["sampling_note"].null_count() == 13
+    rows, _, _ = run_statement(1e-3, 1e-3, 4.0, 0.5, 8, [2e7], 2e5, "third_octave", "dft", CENTRES)
+    assert rows.filter(pl.col("band") == 26)["sampling_note"][0].startswith("E = 20 MPa is outside")
+
+
+def test_settings_that_are_not_numbers_are_not_the_calibrated_ones() -> None:
+    # NaN compared as "not beyond the tolerance": a NaN pressure or segment length was calibrated
+    for pressure, length in ((float("nan"), 0.5), (2e5, float("nan"))):
+        rows, sampling, _ = run_statement(1e-3, 1e-3, 4.0, length, 8, [2e6], pressure, "third_octave", "dft", CENTRES)
+        assert sampling is None and rows["sampling_run_uncertainty_db"].null_count() == rows.height
+
+
+def test_contact_resolution_refuses_a_band_without_a_centre() -> None:
+    statement = pl.DataFrame({"youngs_modulus": [2e6] * 2, "band": [14, 15], "sampling_run_uncertainty_db": [0.3, 0.4]})
+    with pytest.raises(InvalidInputError, match=r"no centre for band\(s\) \[15\]"):   # before: KeyError
+        contact_resolved_to(statement, {14: 0.04})
+
+
+def test_section_bands_refuse_rows_of_a_segment_without_a_start() -> None:
+    # before: a row of section null in section_bands.parquet
+    sections = section_table("r", mpd(synthetic_pavement("dense_asphalt", 2.05, 1e-3, seed=3)), 1.0)
+    bands = pl.DataFrame({"segment": [5], "run_id": ["r"], "youngs_modulus": [2e6], "band": [20], "label": ["10"],
+                          "centre_wavelength": [0.01], "reported": [True], "texture_level": [1.0],
+                          "enveloped_level": [1.0], "pressure_level": [1.0]})
+    with pytest.raises(InvalidInputError, match=r"segment\(s\) \[5\] have no segment start"):
+        section_band_table(sections, bands, np.array([0.2]), 1.0)
+    with pytest.raises(InvalidInputError, match="section_length"):
+        section_table("r", mpd(synthetic_pavement("dense_asphalt", 1.0, 1e-3, seed=3)), True)

@@ -75,9 +75,9 @@ def section_index(positions: np.ndarray, origin: float, section_length: float, c
     index = np.where(early, 0.0, index)
     outside = ~np.isfinite(index) | (index < 0) | (index > count - 1)
     if outside.any():
-        first = at[outside][0]
+        first = float(at[outside][0])
         raise InvalidInputError(
-            f"{int(outside.sum())} position(s) (the first at {first!r} m) lie outside the run's {count} section(s) of "
+            f"{int(outside.sum())} position(s) (the first at {first:g} m) lie outside the run's {count} section(s) of "
             f"{section_length:g} m from {origin:g} m: they belong to no section")
     return index.astype(np.int64)
 
@@ -85,7 +85,8 @@ def section_index(positions: np.ndarray, origin: float, section_length: float, c
 def section_table(run_id: str, depth: MpdResult, section_length: float, etd_edition: str = "2019",
                   min_valid_fraction: float = 0.5) -> pl.DataFrame:
     """sections.parquet's rows of one run (SECTION_SCHEMA order) from its MPD result ``depth`` (lengths in m)."""
-    if not (isinstance(section_length, (int, float, np.floating)) and math.isfinite(section_length)
+    if not (isinstance(section_length, (int, float, np.floating)) and not isinstance(section_length, bool)
+            and math.isfinite(section_length)
             and section_length >= MPD_BASELINE * (1 - 1e-9)):
         raise InvalidInputError(f"section_length must be at least the {MPD_BASELINE * 1e3:g} mm MPD baseline "
                                 f"(ISO 13473-1; a shorter section holds no MPD) and finite, got {section_length!r} m")
@@ -147,6 +148,9 @@ def section_band_table(sections: pl.DataFrame, bands: pl.DataFrame, segment_star
     line, are left out of the average)."""
     where = section_index(np.asarray(segment_starts), float(sections["start"][0]), section_length, sections.height,
                           tolerance=START_TOLERANCE)
+    unknown = sorted(set(bands["segment"].unique().to_list()) - set(range(len(segment_starts))))
+    if unknown:   # a row without a start would land in no section (a null one)
+        raise InvalidInputError(f"band rows of segment(s) {unknown[:5]} have no segment start (of {len(segment_starts)})")
     lookup = pl.DataFrame({"segment": np.arange(len(segment_starts)), "section": where})
     return (bands.join(lookup, on="segment", how="left")
             .group_by("section", "youngs_modulus", "band", maintain_order=True)

@@ -204,6 +204,17 @@ def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | 
     return blend(low, high, t, f"dx = {low_dx:g} and {samplings[upper]:g} m")
 
 
+def outside_moduli(modulus: float, calibrated: np.ndarray) -> str | None:
+    """The note of a statement for a modulus outside the calibrated ones (it takes the nearest's
+    figures), None inside."""
+    low, high = float(calibrated.min()), float(calibrated.max())
+    if low * (1 - 1e-9) <= modulus <= high * (1 + 1e-9):
+        return None
+    nearest = low if modulus < low else high
+    return (f"E = {modulus / 1e6:g} MPa is outside the calibrated {low / 1e6:g} to {high / 1e6:g} MPa: "
+            f"the figures of {nearest / 1e6:g} MPa")
+
+
 def coverage_factor(terms: Sequence[np.ndarray], dofs: Sequence[float]) -> np.ndarray:
     """The t-factor of :data:`COVERAGE`'s probability (95.45 %) for a standard uncertainty whose
     squares ``terms`` (arrays, same shape) have ``dofs`` degrees of freedom each: Welch-Satterthwaite's
@@ -235,15 +246,45 @@ def expanded(within: np.ndarray, files_sd: np.ndarray, n: float, within_dof: np.
     return widest
 
 
+def is_number(value: object) -> bool:
+    """A real number (a bool is not one: True would be read as 1 Pa or 1 m)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def checked_table(table: object, level: str) -> pl.DataFrame:
+    """``table``'s rows of ``level``, checked once at the door: a polars table with the calibration's
+    columns (:data:`CALIBRATION_SCHEMA`; ``between_floored`` may be missing), finite figures,
+    scatters and standard errors not negative, at least 2 files (a between-file scatter needs
+    two) and more segments than files."""
+    if not isinstance(table, pl.DataFrame):
+        raise InvalidInputError(f"table must be a calibration (a polars DataFrame, see summarise), got {type(table).__name__}")
+    missing = [c for c in CALIBRATION_SCHEMA if c not in table.columns and c != "between_floored"]
+    if missing:
+        raise InvalidInputError(f"the calibration table lacks the column(s) {missing}")
+    rows = table.filter(pl.col("level") == level)
+    if rows.is_empty():
+        raise InvalidInputError(f"the calibration holds no {level!r} levels")
+    numbers = rows.select([pl.col(c).cast(pl.Float64) for c in ("dx", "width", "youngs_modulus", *FIGURES)])
+    if not all(np.isfinite(numbers[c].to_numpy()).all() for c in numbers.columns):
+        raise InvalidInputError("the calibration table holds a figure that is not a finite number (NaN, inf or null)")
+    if numbers.select(pl.min_horizontal(FIGURES[1:]).min()).item() < 0 or numbers.select(
+            pl.min_horizontal("dx", "width", "youngs_modulus").min()).item() <= 0:
+        raise InvalidInputError("the calibration table holds a negative scatter or standard error, or a sampling, "
+                                "width or modulus that is not positive")
+    if rows["files"].min() < 2 or (rows["segments"] <= rows["files"]).any():
+        raise InvalidInputError("the calibration table needs at least 2 files and more segments than files in every "
+                                "row (a between-file and a within-file scatter)")
+    return rows
+
+
 def statement_moduli(youngs_moduli: Sequence[float] | float) -> list[float]:
     """The distinct moduli (Pa, in the order given) a statement is for: a statement has one row per
     modulus and band, so a modulus listed twice is stated once (the rows would be identical, and a
     table joined to them would double)."""
-    values = np.atleast_1d(np.asarray(youngs_moduli, dtype=object))
-    try:
-        moduli = [float(v) for v in values]
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"youngs_moduli must be moduli in Pa, got {youngs_moduli!r}") from None
+    values = list(np.atleast_1d(np.asarray(youngs_moduli, dtype=object)))
+    if not all(is_number(v) for v in values):
+        raise InvalidInputError(f"youngs_moduli must be moduli in Pa, got {youngs_moduli!r}")
+    moduli = [float(v) for v in values]
     if not moduli:
         raise InvalidInputError("youngs_moduli must hold at least one modulus (Pa), got none")
     bad = [m for m in moduli if not (np.isfinite(m) and m > 0)]
@@ -272,23 +313,26 @@ def sampling_statement(dx: float, youngs_moduli: Sequence[float], n_segments: fl
         InvalidInputError: a ``dx``, modulus or ``width`` that is not positive and finite, no
             modulus, fewer than one segment, a ``level`` the calibration does not hold.
     """
-    if not (isinstance(dx, (int, float, np.floating, np.integer)) and np.isfinite(dx) and dx > 0):
+    if not (is_number(dx) and np.isfinite(dx) and dx > 0):
         raise InvalidInputError(f"dx must be a positive sampling interval (m), got {dx!r}")
-    try:
-        segments = float(n_segments)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"n_segments must be a number of independent segments, got {n_segments!r}") from None
+    if not is_number(n_segments):
+        raise InvalidInputError(f"n_segments must be a number of independent segments, got {n_segments!r}")
+    segments = float(n_segments)
     if not segments >= 1:
         raise InvalidInputError(f"n_segments must be at least 1 (independent segments), got {n_segments!r}")
     if level not in ("enveloped", "pressure"):
         raise InvalidInputError(f"level must be 'enveloped' or 'pressure', got {level!r}")
-    if width is not None and not (np.isfinite(width) and 0 < width <= dx * (1 + 1e-6)):
+    if width is not None and not (is_number(width) and np.isfinite(width) and 0 < width <= dx * (1 + 1e-6)):
         raise InvalidInputError(f"width (the spot's averaging, m) must be positive and at most dx = {dx:g} m, "
                                 f"got {width!r}")
     moduli = statement_moduli(youngs_moduli)
-    source = (shipped_calibration() if table is None else table).filter(pl.col("level") == level)
-    if source.is_empty():
-        raise InvalidInputError(f"the calibration holds no {level!r} levels")
+    source = checked_table(shipped_calibration() if table is None else table, level)
+    if width is not None:
+        widths = np.unique(source.filter(pl.col("dx") != pl.col("width"))["width"].to_numpy())
+        if not np.any(np.abs(widths - width) <= 1e-6 * width):
+            raise InvalidInputError(f"no spot width of {width * 1e3:g} mm is calibrated (spot widths: "
+                                    f"{', '.join(f'{w * 1e3:g}' for w in widths) or 'none'} mm)")
+    calibrated = np.unique(source["youngs_modulus"].to_numpy())
     frames = []
     for modulus in moduli:
         rows = interpolated(source, float(dx), modulus, width)
@@ -310,7 +354,7 @@ def sampling_statement(dx: float, youngs_moduli: Sequence[float], n_segments: fl
             "youngs_modulus": np.full(bias.size, modulus), "band": rows["band"].to_numpy(),
             "sampling_bias_db": bias, "sampling_correction_db": correction,
             "sampling_uncertainty_db": uncertainty[0], "sampling_run_uncertainty_db": uncertainty[1],
-            "sampling_note": [None] * bias.size,
+            "sampling_note": [outside_moduli(modulus, calibrated)] * bias.size,
         }, schema=STATEMENT_SCHEMA).with_columns(pl.col("sampling_correction_db").fill_nan(None)))
     return pl.concat(frames)
 
@@ -325,6 +369,9 @@ def contact_resolved_to(statement: pl.DataFrame, centre_wavelengths: dict[int, f
         return None
     worst = statement.group_by("band").agg(pl.col("sampling_run_uncertainty_db").max()).sort("band")
     resolved = None
+    missing = sorted(set(worst["band"].to_list()) - set(centre_wavelengths))
+    if missing:
+        raise InvalidInputError(f"centre_wavelengths holds no centre for band(s) {missing} of the statement")
     for band, value in worst.iter_rows():   # longest wavelength first (band numbers rise as wavelengths fall)
         if value is None or value > threshold_db:
             break
@@ -341,9 +388,10 @@ PRESSURE_TOLERANCE = 0.25
 
 def calibration_applies(segment_length: float, mean_pressure: float, band_kind: str, band_method: str) -> str | None:
     """None when the shipped calibration applies to a job's settings, else why not (a sentence)."""
-    if abs(segment_length - CALIBRATED_SEGMENT_LENGTH) > 0.01 * CALIBRATED_SEGMENT_LENGTH:
+    # "not within" rather than "beyond": a NaN setting is not the calibrated one
+    if not abs(segment_length - CALIBRATED_SEGMENT_LENGTH) <= 0.01 * CALIBRATED_SEGMENT_LENGTH:
         return f"calibrated on {CALIBRATED_SEGMENT_LENGTH:g} m segments, not {segment_length:g} m"
-    if abs(mean_pressure / CALIBRATED_PRESSURE - 1.0) > PRESSURE_TOLERANCE:
+    if not abs(mean_pressure / CALIBRATED_PRESSURE - 1.0) <= PRESSURE_TOLERANCE:
         return f"calibrated at a mean pressure of {CALIBRATED_PRESSURE / 1e6:g} MPa, not {mean_pressure / 1e6:g} MPa"
     if band_kind != "third_octave" or band_method != "dft":
         return "calibrated on third-octave DFT band levels"
@@ -371,10 +419,9 @@ def run_statement(file_dx: float, dx_used: float, length: float, segment_length:
         keys = pl.DataFrame({"youngs_modulus": np.repeat(moduli, len(bands)), "band": np.tile(bands, len(moduli))},
                             schema={"youngs_modulus": pl.Float64, "band": pl.Int64})
         figures = [c for c in STATEMENT_SCHEMA if c not in ("youngs_modulus", "band", "sampling_note")]
-        joined = keys.join(statement.drop("sampling_note"), on=["youngs_modulus", "band"], how="left",
-                           maintain_order="left")
+        joined = keys.join(statement, on=["youngs_modulus", "band"], how="left", maintain_order="left")
         stated = pl.col("sampling_run_uncertainty_db").is_not_null()
-        return joined.with_columns(pl.when(stated).then(pl.lit(None, dtype=pl.String)).otherwise(pl.lit(reason))
+        return joined.with_columns(pl.when(stated).then(pl.col("sampling_note")).otherwise(pl.lit(reason))
                                    .alias("sampling_note")).select(list(STATEMENT_SCHEMA)).with_columns(
             [pl.col(c).cast(STATEMENT_SCHEMA[c]) for c in figures])
 
