@@ -38,7 +38,8 @@ def header(files: list[Path], step: float) -> str:
         f"# samplings dx/width (mm): {cases}; E = {', '.join(f'{e / 1e6:g}' for e in MODULI)} MPa; P = 0.2 MPa",
         "# level: enveloped (dB re 1 um) or pressure (dB re 1 Pa); dx, width, centre_wavelength in m; youngs_modulus in Pa;",
         "# bias_db = mean(coarse - fine), within_sd_db / between_sd_db = scatter of segments in a file / of files' means,",
-        "# bias_se_db = standard error of bias_db; files, segments = counts (see roadtex.budget.sampling)",
+        "# bias_se_db = standard error of bias_db; files, segments = counts; between_floored = between_sd_db at the floor",
+        "# three files can resolve (their means' own noise: see roadtex.budget.sampling)",
     ]) + "\n"
 
 

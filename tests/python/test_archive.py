@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import errno
-import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -249,29 +247,57 @@ def _job(manifest: Path, out: Path) -> list[str]:
             str(OPTIONS.segment_length), "--tol", str(OPTIONS.tol), "--threads", "1"]
 
 
-def test_sigkill_at_random_moments_then_resume_gives_identical_tables(tmp_path: Path) -> None:
-    runs = 10
+#: The job with a SIGKILL at a known point (argv[1], "kind:at"): "compute:N" as the N-th run's
+#: compute starts (runs before it done, others in flight), "write:N" in the N-th table write after
+#: its temporary file is written and before it is renamed (mid-write of a run's tables),
+#: "combine:NAME" in the write of the combined table NAME (the job's last step). Deterministic:
+#: a hook at a point of the job, not a race of a timer against it.
+KILL_JOB = """
+import os, signal, sys, threading
+import roadtex.archive.combine as combine
+import roadtex.archive.worker as worker
+from roadtex.cli import main
+kind, at = sys.argv[1].split(":")
+lock, count = threading.Lock(), [0]
+def due():
+    with lock:
+        count[0] += 1
+        return count[0] == int(at)
+def kill():
+    os.kill(os.getpid(), signal.SIGKILL)
+if kind == "compute":
+    compute = worker.compute_run
+    def killing(*args, **kwargs):
+        if due():
+            kill()
+        return compute(*args, **kwargs)
+    worker.compute_run = killing
+else:
+    write = worker.write_atomically   # the runs' tables (worker) and the combined ones (combine)
+    def killing(path, fn, *args, **kwargs):
+        if (kind == "write" and due()) or (kind == "combine" and path.name == at and path.parent.parent.name != "runs"):
+            return write(path, lambda p: (fn(p), kill()), *args, **kwargs)
+        return write(path, fn, *args, **kwargs)
+    worker.write_atomically = combine.write_atomically = killing
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+def test_sigkill_at_known_points_then_resume_gives_identical_tables(tmp_path: Path) -> None:
+    runs = 6
     archive = make_archive(tmp_path / "a", runs=runs, length=2.0)
     reference = tmp_path / "reference"
     assert subprocess.run(_job(archive, reference), capture_output=True).returncode == 0
     out = tmp_path / "out"
-    rng = np.random.default_rng(7)
-    seen_partial = []
-    # Kill when a random number of runs is done, plus a random delay so the kill lands anywhere:
-    # mid-solve, mid-write of a run's tables, between runs, or while the combined tables are written.
-    for target in (1, 3, 5, 8, runs):
-        job = subprocess.Popen(_job(archive, out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.monotonic() + 60
-        while job.poll() is None and time.monotonic() < deadline:
-            if len(list((out / "runs").glob("*/status.json"))) >= target:
-                break
-            time.sleep(0.005)
-        time.sleep(float(rng.uniform(0.0, 0.08)))
-        if job.poll() is None:
-            os.kill(job.pid, signal.SIGKILL)
-            seen_partial.append(len(list((out / "runs").glob("*/status.json"))))
-        job.wait()
-    assert any(0 < done < runs for done in seen_partial), f"no kill landed mid-job: {seen_partial}"
+    done_at_kill = []
+    for point in ("compute:1", "write:3", "compute:4", "combine:bands.parquet"):
+        job = subprocess.run([sys.executable, "-c", KILL_JOB, point, *_job(archive, out)[3:]], capture_output=True)
+        assert job.returncode == -signal.SIGKILL, (point, job.returncode, job.stderr[-2000:])
+        done_at_kill.append(len(list((out / "runs").glob("*/status.json"))))
+    # nothing done at the first run; a run's tables half written; some runs done (2 or 3: two in
+    # flight); every run done, the combined tables half written
+    assert done_at_kill[0] == 0 and 0 < done_at_kill[2] < runs and done_at_kill[3] == runs, done_at_kill
+    assert list(out.rglob("*.tmp")), "the kills left temporary files to clean up"
     assert subprocess.run(_job(archive, out), capture_output=True).returncode == 0
     assert not list(out.rglob("*.tmp")), "temporary files of killed jobs are cleaned up on resume"
     for name in ("segments", "bands", "runs", "errors"):

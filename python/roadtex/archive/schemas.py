@@ -97,6 +97,8 @@ BAND_COLUMNS: Columns = {
     "sampling_uncertainty_db": (pl.Float64(), "dB"),  # half-width about this row's enveloped_level (one segment) holding
                                                       # the 0.0375 mm data's level (about 95 %)
     "sampling_run_uncertainty_db": (pl.Float64(), "dB"),  # the same for the run's mean level over its segments
+    "sampling_note": (pl.String(), None),         # why this row's sampling figures are null, or why a correction
+                                                  # asked for was not made (line runs; null when stated as asked)
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
                                                   # (line runs: their group's pilot; surface runs: their own
                                                   # areal pilot, per model; null without budget)
@@ -348,7 +350,7 @@ SECTION_BAND_SCHEMA = schema(SECTION_BAND_COLUMNS)
 #: estimates and timings), which must not make a run's own tables stale when the plan is redone.
 #: The band columns of the sampling statement (null until a line run's own is joined, and for surface runs).
 SAMPLING_BAND_COLUMNS = ("sampling_bias_db", "sampling_correction_db", "sampling_uncertainty_db",
-                         "sampling_run_uncertainty_db")
+                         "sampling_run_uncertainty_db", "sampling_note")
 PLAN_BAND_COLUMNS = ("level_error_db", "interpolant_spread_db", "sampling_limited")
 PLAN_RUN_COLUMNS = ("worst_level_error_db", "within_budget", "speedup", "time_saved_fraction", "error_source")
 RUN_BAND_SCHEMA = {k: v for k, v in BAND_SCHEMA.items() if k not in PLAN_BAND_COLUMNS}

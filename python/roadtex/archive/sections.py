@@ -2,10 +2,14 @@
 section_bands.parquet), from the run's own MPD baselines and contact-segment band levels.
 
 Sections are consecutive stretches of ``section_length`` (ProcessingOptions.section_length, default
-10 m) along the run, in the file's own distances (chainage as the file gives it), starting at the
-run's first ISO 13473-1 baseline (the first reading after any reference plate) and ending at the
-last whole baseline; the last section is shorter when the run is not a whole number of sections
-(``partial``, with a ``note``), and a run shorter than one section gets one partial row.
+10 m, at least the 100 mm MPD baseline: a shorter section would hold no MPD) along the run, in the
+file's own distances (chainage as the file gives it), from the run's start (its first reading
+after any reference plate: a 1 mm file from 0 m reads 0-10 m, 10-20 m; 0.3.0 started half a
+reading earlier, at the first baseline's edge) to its last whole ISO 13473-1 baseline. A baseline
+belongs to the section it starts in, counted along the baselines' own chain (which starts half a
+reading before the first reading: each reading stands for the interval around it). The last
+section is shorter when the run is not a whole number of sections (``partial``, with a
+``note``), and a run shorter than one section gets one partial row.
 
 Per section (sections.parquet, one row per run and section):
 
@@ -38,29 +42,62 @@ import math
 import numpy as np
 import polars as pl
 
+from roadtex.errors import InvalidInputError
 from roadtex.profiles.mpd import MpdResult, estimated_texture_depth
+from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
 from roadtex.profiles.trend import remove_lines
+
+#: The ISO 13473-1 MPD baseline (m): the shortest section that can hold an MPD.
+MPD_BASELINE = 0.1
+
+#: How far (m) before the run's first reading a contact segment may start and count in the first
+#: section: within that reading's interval (the job's samples are interval centres, so at a dx
+#: finer than the file's the first starts up to half a reading early), half the coarsest plausible
+#: interval (roadtex.profiles.plausibility.PLAUSIBLE_MAX_DX). Earlier is refused.
+START_TOLERANCE = PLAUSIBLE_MAX_DX / 2
 
 SECTION_LEVELS = ("texture_level", "enveloped_level", "pressure_level")
 
 
-def section_index(positions: np.ndarray, origin: float, section_length: float, count: int) -> np.ndarray:
-    """The section (0 .. count - 1) each position (m) starts in; positions within rounding before
-    the first section or after the last count to the nearest one (a contact segment starts at a
-    sample, a baseline at half a sample earlier)."""
-    index = np.floor((np.asarray(positions, dtype=np.float64) - origin) / section_length + 1e-9).astype(np.int64)
-    return np.clip(index, 0, count - 1)
+def section_index(positions: np.ndarray, origin: float, section_length: float, count: int,
+                  tolerance: float = 0.0) -> np.ndarray:
+    """The section (0 .. count - 1) each position (m) starts in, sections of ``section_length`` from
+    ``origin``. A position up to ``tolerance`` (m) before the first section counts in it (a contact
+    segment or baseline starting within the run's first reading's interval); any other position
+    outside the sections is refused, never moved into the nearest one.
+
+    Raises:
+        InvalidInputError: a position outside the sections (or not finite).
+    """
+    at = np.asarray(positions, dtype=np.float64)
+    index = np.floor((at - origin) / section_length + 1e-9)
+    early = (index < 0) & (at >= origin - tolerance - 1e-9 * section_length)
+    index = np.where(early, 0.0, index)
+    outside = ~np.isfinite(index) | (index < 0) | (index > count - 1)
+    if outside.any():
+        first = float(at[outside][0])
+        raise InvalidInputError(
+            f"{int(outside.sum())} position(s) (the first at {first:g} m) lie outside the run's {count} section(s) of "
+            f"{section_length:g} m from {origin:g} m: they belong to no section")
+    return index.astype(np.int64)
 
 
 def section_table(run_id: str, depth: MpdResult, section_length: float, etd_edition: str = "2019",
                   min_valid_fraction: float = 0.5) -> pl.DataFrame:
     """sections.parquet's rows of one run (SECTION_SCHEMA order) from its MPD result ``depth`` (lengths in m)."""
+    if not (isinstance(section_length, (int, float, np.floating)) and not isinstance(section_length, bool)
+            and math.isfinite(section_length)
+            and section_length >= MPD_BASELINE * (1 - 1e-9)):
+        raise InvalidInputError(f"section_length must be at least the {MPD_BASELINE * 1e3:g} mm MPD baseline "
+                                f"(ISO 13473-1; a shorter section holds no MPD) and finite, got {section_length!r} m")
     baselines = depth.segments
     starts = baselines["start"].to_numpy()
     ends = baselines["end"].to_numpy()
-    origin, finish = float(starts[0]), float(ends[-1])
-    count = max(1, math.ceil((finish - origin) / section_length - 1e-9))
-    section = section_index(starts, origin, section_length, count)
+    chain, finish = float(starts[0]), float(ends[-1])
+    # chainage from the run's first reading; the baselines' chain starts half a reading before it
+    origin = chain if depth.first_reading is None else float(depth.first_reading)
+    count = max(1, math.ceil((finish - chain) / section_length - 1e-9))
+    section = section_index(starts - chain, 0.0, section_length, count)
     valid = baselines["valid"].to_numpy()
 
     points = int(round(float(depth.parameters["segment_length"]) / float(depth.parameters["sample_spacing"])))
@@ -85,7 +122,7 @@ def section_table(run_id: str, depth: MpdResult, section_length: float, etd_edit
     spikes = np.bincount(section, weights=baselines["spike_fraction"].to_numpy(), minlength=count) / np.maximum(total, 1)
 
     s_start = origin + section_length * np.arange(count)
-    s_end = np.minimum(s_start + section_length, finish)
+    s_end = np.minimum(s_start + section_length, origin + (finish - chain))
     length = s_end - s_start
     partial = length < section_length * (1 - 1e-9)
     notes: list[str | None] = [None] * count
@@ -109,7 +146,11 @@ def section_band_table(sections: pl.DataFrame, bands: pl.DataFrame, segment_star
     segments (``bands``: the run's bands.parquet rows; ``segment_starts`` in m, by segment number)
     that start in the section, and how many there were (null levels, a band without power or DFT
     line, are left out of the average)."""
-    where = section_index(np.asarray(segment_starts), float(sections["start"][0]), section_length, sections.height)
+    where = section_index(np.asarray(segment_starts), float(sections["start"][0]), section_length, sections.height,
+                          tolerance=START_TOLERANCE)
+    unknown = sorted(set(bands["segment"].unique().to_list()) - set(range(len(segment_starts))))
+    if unknown:   # a row without a start would land in no section (a null one)
+        raise InvalidInputError(f"band rows of segment(s) {unknown[:5]} have no segment start (of {len(segment_starts)})")
     lookup = pl.DataFrame({"segment": np.arange(len(segment_starts)), "section": where})
     return (bands.join(lookup, on="segment", how="left")
             .group_by("section", "youngs_modulus", "band", maintain_order=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import shutil
 import socket
@@ -90,7 +91,25 @@ def write_error(code: int | None, message: str) -> ArchiveWriteError:
 
 
 def write_json(path: Path, payload: dict[str, Any]) -> None:
-    write_atomically(path, lambda p: p.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str), encoding="utf-8"))
+    """Strict JSON (no Infinity/NaN, which JSON has not): a non-finite number is written as null, and
+    the top-level ``non_finite`` says what it was, by its path ("plan.worst_error_db": "inf")."""
+    found: dict[str, str] = {}
+    strict = finite_json(payload, "", found)
+    text = json.dumps({**strict, "non_finite": found} if found else strict, indent=1, sort_keys=True, default=str,
+                      allow_nan=False)
+    write_atomically(path, lambda p: p.write_text(text, encoding="utf-8"))
+
+
+def finite_json(value: Any, path: str, found: dict[str, str]) -> Any:
+    """``value`` with every non-finite float (in dicts, lists, tuples) None, its path and value in ``found``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        found[path] = str(value)
+        return None
+    if isinstance(value, dict):
+        return {k: finite_json(v, f"{path}.{k}" if path else str(k), found) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_json(v, f"{path}[{i}]", found) for i, v in enumerate(value)]
+    return value
 
 
 def read_status(run_dir: Path) -> dict[str, Any] | None:

@@ -12,22 +12,39 @@ both solved converged, coarse - fine per band. The table it gives
 - ``bias_db``: mean difference coarse - fine (the files weighted equally);
 - ``within_sd_db``: scatter of single segments about their file's mean (pooled);
 - ``between_sd_db``: scatter of the files' means beyond what ``within_sd_db`` explains (the floor
-  a long run's mean keeps: a road differs from another in what its sampling hides);
-- ``bias_se_db``: the standard error of ``bias_db`` itself.
+  a long run's mean keeps: a road differs from another in what its sampling hides). Where the
+  files' means scatter less than their segments' own noise predicts (the analysis-of-variance
+  estimate is negative: 158 of the 728 rows of the 0.3.0 table were clipped to 0), three files
+  cannot tell the between-file variance from zero, and zero would claim that a long run's mean
+  converges to the bias: it is floored at the variance of the files' means that the segments'
+  noise alone gives, ``within^2 mean(1 / n_i)`` (the smallest between-file scatter these files
+  could have seen), and ``between_floored`` says so;
+- ``bias_se_db``: the standard error of ``bias_db`` itself;
+- ``between_floored``: whether a band pooled into ``between_sd_db`` is at that floor.
 
 The scatters are pooled with the neighbouring bands (rms over three bands), as the error budget
 pools its pilot's: a band's own estimate from three files is too noisy to state on its own.
 
-**Statement** for a run of ``n`` segments (:func:`sampling_statement`): the run's mean level differs
-from what 0.0375 mm data would give by ``bias`` plus a scatter of standard deviation
-``sqrt(within^2 / n + between^2)`` (``sqrt(within^2 + between^2)`` for one segment). The stated
+**Statement** for a run of ``n`` independent segments (:func:`sampling_statement`): the run's
+mean level differs from what 0.0375 mm data would give by the true bias plus a scatter of
+standard deviation ``sqrt(within^2 / n + between^2)`` (``sqrt(within^2 + between^2)`` for one
+segment); the calibration knows the bias only to its standard error ``bias_se``. The stated
 uncertainty is the half-width of the interval about the level *as reported* that holds the fine
-data's level: ``|bias| + COVERAGE x scatter`` uncorrected; with the correction (where the bias is
-systematic: ``|bias| > 2 bias_se`` and ``|bias| >= 0.5`` dB) the level is reported minus ``bias`` and the uncertainty is
-``COVERAGE x sqrt(scatter^2 + bias_se^2)``. The job's readings are taken as interval averages
-(ISO 13473-1's resampling); between calibrated samplings the figures are interpolated in log dx
-(0 at the calibration's own 0.0375 mm), between moduli in log E (the nearest outside); coarser than
-the coarsest calibrated sampling, or outside the calibrated bands, nothing is stated (null).
+data's level: ``|bias| + k u`` uncorrected, ``k u`` corrected (where the bias is systematic:
+``|bias| > 2 bias_se`` and ``|bias| >= 0.5`` dB, the level is reported minus ``bias``), with
+``u = sqrt(within^2 / n + between^2 + bias_se^2)`` in both cases (0.3.0 left ``bias_se`` out of
+the uncorrected statement: a 10 km run at 1 mm was stated below two standard errors of its
+bias). ``k`` is the Student t-factor of coverage probability 95.45 % (``COVERAGE`` = 2 for a
+normal scatter) at the effective degrees of freedom of ``u`` (Welch-Satterthwaite, JCGM
+100:2008, the GUM, G.4.1, formula (G.2b); t-factors as in its Table G.2): the within-file term
+has ``segments - files`` degrees of freedom, the between-file and the bias's own terms
+``files - 1`` (2 for the shipped table). A short run's statement is ruled by the within-file
+scatter (k near 2); a long run's by what three files know (k up to 4.53: t at 2 degrees of
+freedom), so that it never shrinks below what the calibration can know. The job's readings
+are taken as interval averages (ISO 13473-1's resampling); between calibrated samplings the
+figures are interpolated in log dx (0 at the calibration's own 0.0375 mm), between moduli in
+log E (the nearest outside); coarser than the coarsest calibrated sampling, or outside the
+calibrated bands, nothing is stated (null).
 """
 
 from __future__ import annotations
@@ -47,7 +64,8 @@ CALIBRATION_FILE = "sampling_calibration.csv"
 #: The sampling interval of the calibration's reference data (m): the CAPTIF files.
 REFERENCE_DX = 0.0375e-3
 
-#: Coverage factor of the stated uncertainty (about 95 % of a normal scatter).
+#: Coverage factor of the stated uncertainty for a normal scatter known exactly (95.45 %); with
+#: fewer degrees of freedom the Student t-factor of the same probability (module docstring).
 COVERAGE = 2.0
 
 #: A band's bias is corrected only where it is systematic: larger than this many standard errors
@@ -66,12 +84,13 @@ CALIBRATION_SCHEMA = {
     "level": pl.String, "dx": pl.Float64, "width": pl.Float64, "youngs_modulus": pl.Float64, "band": pl.Int64,
     "label": pl.String, "centre_wavelength": pl.Float64, "bias_db": pl.Float64, "within_sd_db": pl.Float64,
     "between_sd_db": pl.Float64, "bias_se_db": pl.Float64, "files": pl.Int64, "segments": pl.Int64,
+    "between_floored": pl.Boolean,
 }
 
 STATEMENT_SCHEMA = {
     "youngs_modulus": pl.Float64, "band": pl.Int64, "sampling_bias_db": pl.Float64,
     "sampling_correction_db": pl.Float64, "sampling_uncertainty_db": pl.Float64,
-    "sampling_run_uncertainty_db": pl.Float64,
+    "sampling_run_uncertainty_db": pl.Float64, "sampling_note": pl.String,
 }
 
 
@@ -95,14 +114,18 @@ def summarise(differences: pl.DataFrame, level: str = "enveloped", segment_lengt
         (pl.col("ss").sum() / (pl.col("n") - 1).sum()).alias("var_within"),
         (1.0 / pl.col("independent")).mean().alias("inv_n"), pl.col("independent").sum().alias("independent"),
         pl.len().alias("files"), pl.col("n").sum().alias("segments"))
-    table = table.with_columns(
-        (pl.col("var_means").fill_null(0.0) - pl.col("var_within") * pl.col("inv_n")).clip(lower_bound=0.0).alias("var_between"))
+    # the between-file variance, floored where the files cannot tell it from their own noise (module docstring)
+    noise = pl.col("var_within") * pl.col("inv_n")
+    estimate = pl.col("var_means").fill_null(0.0) - noise
+    table = table.with_columns((estimate < noise).alias("floored"), pl.max_horizontal(estimate, noise).alias("var_between"))
     table = table.sort(["dx", "width", "youngs_modulus", "band"])
     pooled = []
     for _, group in table.group_by(["dx", "width", "youngs_modulus"], maintain_order=True):
         within, between = group["var_within"].to_numpy(), group["var_between"].to_numpy()
+        floored = group["floored"].to_numpy().astype(np.float64)
         pooled.append(group.with_columns(pl.Series("within_sd_db", np.sqrt(neighbour_mean(within))),
-                                         pl.Series("between_sd_db", np.sqrt(neighbour_mean(between)))))
+                                         pl.Series("between_sd_db", np.sqrt(neighbour_mean(between))),
+                                         pl.Series("between_floored", neighbour_mean(floored) > 0)))
     out = pl.concat(pooled).with_columns(
         (pl.col("within_sd_db") ** 2 / pl.col("independent") + pl.col("between_sd_db") ** 2 / pl.col("files"))
         .sqrt().alias("bias_se_db"), pl.lit(level).alias("level"))
@@ -124,16 +147,38 @@ def shipped_calibration() -> pl.DataFrame:
         return pl.read_csv(path, comment_prefix="#", schema=CALIBRATION_SCHEMA)
 
 
+FIGURES = ("bias_db", "within_sd_db", "between_sd_db", "bias_se_db")
+
+
+def blend(low: pl.DataFrame, high: pl.DataFrame, t: float, what: str) -> pl.DataFrame:
+    """``low``'s rows with the :data:`FIGURES` ``(1 - t) low + t high``, matched by band number
+    (``what`` names the two sides in the refusal): a table whose two sides hold different or
+    repeated bands is refused, never blended position by position."""
+    for side in (low, high):
+        repeated = side["band"].is_duplicated()
+        if repeated.any():
+            raise InvalidInputError(f"the calibration holds band {side['band'].filter(repeated)[0]} twice at {what}")
+    only = sorted(set(low["band"].to_list()) ^ set(high["band"].to_list()))
+    if only:
+        raise InvalidInputError(f"the calibration's bands differ between {what}: band(s) {only} on one side only; "
+                                "a table must hold the same bands at every sampling and modulus")
+    other = high.select("band", *[pl.col(c).alias(f"{c}_high") for c in FIGURES])
+    return low.join(other, on="band", how="left", maintain_order="left").with_columns(
+        [(pl.col(c) * (1 - t) + pl.col(f"{c}_high") * t).alias(c) for c in FIGURES]).drop([f"{c}_high" for c in FIGURES])
+
+
 def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | None = None) -> pl.DataFrame | None:
     """The rows of ``table`` at sampling ``dx`` (m) and ``modulus`` (Pa), interpolated in log dx and
     log E (see the module), for interval averaging (``width`` None) or a spot ``width`` (m; the
-    samplings calibrated with that width); None coarser than the coarsest such sampling."""
+    samplings calibrated with that width); None coarser than the coarsest such sampling. Rows
+    are matched by band number (a table holding other bands at another sampling or modulus is
+    refused: :func:`blend`)."""
     rows = table.filter(pl.col("dx") == pl.col("width") if width is None else (pl.col("width") - width).abs() <= 1e-6 * width)
     samplings = np.unique(rows["dx"].to_numpy())
     if rows.is_empty() or dx > samplings.max() * (1 + 1e-6):
         return None
     moduli = np.unique(rows["youngs_modulus"].to_numpy())
-    columns = ["bias_db", "within_sd_db", "between_sd_db", "bias_se_db"]
+    columns = list(FIGURES)
 
     def at(sampling: float) -> pl.DataFrame:
         """Rows at one calibrated sampling, interpolated in log E."""
@@ -145,7 +190,7 @@ def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | 
         a = chosen.filter(pl.col("youngs_modulus") == moduli[lower]).sort("band")
         b = chosen.filter(pl.col("youngs_modulus") == moduli[upper]).sort("band")
         t = 0.0 if upper == lower else (np.log(e) - np.log(moduli[lower])) / (np.log(moduli[upper]) - np.log(moduli[lower]))
-        return a.with_columns([(pl.col(c) * (1 - t) + b[c] * t).alias(c) for c in columns])
+        return blend(a, b, t, f"E = {moduli[lower]:g} and {moduli[upper]:g} Pa (dx {sampling:g} m)")
 
     if dx <= REFERENCE_DX * (1 + 1e-6):
         return at(samplings.min()).with_columns([pl.lit(0.0).alias(c) for c in columns])
@@ -156,50 +201,160 @@ def interpolated(table: pl.DataFrame, dx: float, modulus: float, width: float | 
     low_dx = REFERENCE_DX if upper == 0 else samplings[upper - 1]
     low = (high.with_columns([pl.lit(0.0).alias(c) for c in columns]) if upper == 0 else at(low_dx))
     t = (np.log(dx) - np.log(low_dx)) / (np.log(samplings[upper]) - np.log(low_dx))
-    return low.with_columns([(pl.col(c) * (1 - t) + high[c] * t).alias(c) for c in columns])
+    return blend(low, high, t, f"dx = {low_dx:g} and {samplings[upper]:g} m")
+
+
+def outside_moduli(modulus: float, calibrated: np.ndarray) -> str | None:
+    """The note of a statement for a modulus outside the calibrated ones (it takes the nearest's
+    figures), None inside."""
+    low, high = float(calibrated.min()), float(calibrated.max())
+    if low * (1 - 1e-9) <= modulus <= high * (1 + 1e-9):
+        return None
+    nearest = low if modulus < low else high
+    return (f"E = {modulus / 1e6:g} MPa is outside the calibrated {low / 1e6:g} to {high / 1e6:g} MPa: "
+            f"the figures of {nearest / 1e6:g} MPa")
+
+
+def coverage_factor(terms: Sequence[np.ndarray], dofs: Sequence[float]) -> np.ndarray:
+    """The t-factor of :data:`COVERAGE`'s probability (95.45 %) for a standard uncertainty whose
+    squares ``terms`` (arrays, same shape) have ``dofs`` degrees of freedom each: Welch-Satterthwaite's
+    effective degrees of freedom (JCGM 100:2008, G.4.1, (G.2b)). :data:`COVERAGE` where the
+    uncertainty is 0."""
+    from scipy import stats
+
+    total = np.sum(terms, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        effective = total ** 2 / np.sum([t ** 2 / d for t, d in zip(terms, dofs)], axis=0)
+    probability = 2.0 * stats.norm.cdf(COVERAGE) - 1.0
+    factor = stats.t.ppf(0.5 + probability / 2.0, np.where(np.isfinite(effective) & (effective > 0), effective, np.inf))
+    return np.where(total > 0, factor, COVERAGE)
+
+
+def expanded(within: np.ndarray, files_sd: np.ndarray, n: float, within_dof: np.ndarray,
+             file_dof: np.ndarray) -> np.ndarray:
+    """The expanded uncertainty (dB) of a mean over ``n`` segments: ``k u`` with ``u^2 = within^2 / n +
+    files_sd^2`` (``files_sd``: the between-file scatter and the bias's standard error combined)
+    and ``k`` :func:`coverage_factor`, taken as the largest over ``n`` and every longer run (``n``
+    doubled up to 2^40 times, and the limit): the t-factor rises as the well-known within-file term
+    fades, and a longer run must not be stated as more certain of the bias than a shorter one
+    knows nor a single segment as more certain than a run's mean."""
+    counts = [float(n) * 2.0 ** j for j in range(41)] + [np.inf]
+    widest = np.zeros(within.shape)
+    for count in counts:
+        terms = [within ** 2 / count, files_sd ** 2]
+        widest = np.fmax(widest, coverage_factor(terms, [within_dof, file_dof]) * np.sqrt(np.sum(terms, axis=0)))
+    return widest
+
+
+def is_number(value: object) -> bool:
+    """A real number (a bool is not one: True would be read as 1 Pa or 1 m)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def checked_table(table: object, level: str) -> pl.DataFrame:
+    """``table``'s rows of ``level``, checked once at the door: a polars table with the calibration's
+    columns (:data:`CALIBRATION_SCHEMA`; ``between_floored`` may be missing), finite figures,
+    scatters and standard errors not negative, at least 2 files (a between-file scatter needs
+    two) and more segments than files."""
+    if not isinstance(table, pl.DataFrame):
+        raise InvalidInputError(f"table must be a calibration (a polars DataFrame, see summarise), got {type(table).__name__}")
+    missing = [c for c in CALIBRATION_SCHEMA if c not in table.columns and c != "between_floored"]
+    if missing:
+        raise InvalidInputError(f"the calibration table lacks the column(s) {missing}")
+    rows = table.filter(pl.col("level") == level)
+    if rows.is_empty():
+        raise InvalidInputError(f"the calibration holds no {level!r} levels")
+    numbers = rows.select([pl.col(c).cast(pl.Float64) for c in ("dx", "width", "youngs_modulus", *FIGURES)])
+    if not all(np.isfinite(numbers[c].to_numpy()).all() for c in numbers.columns):
+        raise InvalidInputError("the calibration table holds a figure that is not a finite number (NaN, inf or null)")
+    if numbers.select(pl.min_horizontal(FIGURES[1:]).min()).item() < 0 or numbers.select(
+            pl.min_horizontal("dx", "width", "youngs_modulus").min()).item() <= 0:
+        raise InvalidInputError("the calibration table holds a negative scatter or standard error, or a sampling, "
+                                "width or modulus that is not positive")
+    if rows["files"].min() < 2 or (rows["segments"] <= rows["files"]).any():
+        raise InvalidInputError("the calibration table needs at least 2 files and more segments than files in every "
+                                "row (a between-file and a within-file scatter)")
+    return rows
+
+
+def statement_moduli(youngs_moduli: Sequence[float] | float) -> list[float]:
+    """The distinct moduli (Pa, in the order given) a statement is for: a statement has one row per
+    modulus and band, so a modulus listed twice is stated once (the rows would be identical, and a
+    table joined to them would double)."""
+    values = list(np.atleast_1d(np.asarray(youngs_moduli, dtype=object)))
+    if not all(is_number(v) for v in values):
+        raise InvalidInputError(f"youngs_moduli must be moduli in Pa, got {youngs_moduli!r}")
+    moduli = [float(v) for v in values]
+    if not moduli:
+        raise InvalidInputError("youngs_moduli must hold at least one modulus (Pa), got none")
+    bad = [m for m in moduli if not (np.isfinite(m) and m > 0)]
+    if bad:
+        raise InvalidInputError(f"youngs_moduli must be positive, finite moduli (Pa), got {bad[0]!r}")
+    return list(dict.fromkeys(moduli))
 
 
 def sampling_statement(dx: float, youngs_moduli: Sequence[float], n_segments: float, *, correct: bool = False,
                        table: pl.DataFrame | None = None, level: str = "enveloped",
                        width: float | None = None) -> pl.DataFrame:
     """What a run sampled every ``dx`` (m, its readings interval averages) cannot tell of its
-    ``level`` band levels ("enveloped" or "pressure"), per modulus (Pa) and calibrated band
-    (:data:`STATEMENT_SCHEMA`, dB): ``sampling_bias_db`` (expected level - the 0.0375 mm data's),
-    ``sampling_correction_db`` (what ``correct`` subtracts from the level: the bias where it is
-    systematic, else 0; null uncorrected), ``sampling_uncertainty_db`` (one segment's level) and
-    ``sampling_run_uncertainty_db`` (the mean over the run's ``n_segments``): half-widths about the
-    level as reported (corrected or not) that hold the fine data's level (module docstring).
-    ``width`` (m): a profiler's spot averaging its readings over less than ``dx`` (None: interval
-    averages); ``table``: a calibration (:func:`summarise`; None: the shipped one). Empty (no rows)
-    where the sampling is coarser than the calibration's."""
-    if not (np.isfinite(dx) and dx > 0):
+    ``level`` band levels ("enveloped" or "pressure"), per modulus (Pa; each distinct one once)
+    and calibrated band (:data:`STATEMENT_SCHEMA`, dB): ``sampling_bias_db`` (expected level - the
+    0.0375 mm data's), ``sampling_correction_db`` (what ``correct`` subtracts from the level: the
+    bias where it is systematic, else 0; null uncorrected), ``sampling_uncertainty_db`` (one
+    segment's level) and ``sampling_run_uncertainty_db`` (the mean over the run's ``n_segments``
+    independent segments, inf allowed: the long-run limit): half-widths about the level as
+    reported (corrected or not) that hold the fine data's level, the bias's own standard error
+    included (module docstring). ``width`` (m): a profiler's spot averaging its readings over less
+    than ``dx`` (None: interval averages); ``table``: a calibration (:func:`summarise`; None: the
+    shipped one). Empty (no rows) where the sampling is coarser than the calibration's; the
+    ``sampling_note`` column is filled by :func:`run_statement`.
+
+    Raises:
+        InvalidInputError: a ``dx``, modulus or ``width`` that is not positive and finite, no
+            modulus, fewer than one segment, a ``level`` the calibration does not hold.
+    """
+    if not (is_number(dx) and np.isfinite(dx) and dx > 0):
         raise InvalidInputError(f"dx must be a positive sampling interval (m), got {dx!r}")
-    if not n_segments >= 1:
+    if not is_number(n_segments):
+        raise InvalidInputError(f"n_segments must be a number of independent segments, got {n_segments!r}")
+    segments = float(n_segments)
+    if not segments >= 1:
         raise InvalidInputError(f"n_segments must be at least 1 (independent segments), got {n_segments!r}")
-    source = shipped_calibration() if table is None else table
+    if level not in ("enveloped", "pressure"):
+        raise InvalidInputError(f"level must be 'enveloped' or 'pressure', got {level!r}")
+    if width is not None and not (is_number(width) and np.isfinite(width) and 0 < width <= dx * (1 + 1e-6)):
+        raise InvalidInputError(f"width (the spot's averaging, m) must be positive and at most dx = {dx:g} m, "
+                                f"got {width!r}")
+    moduli = statement_moduli(youngs_moduli)
+    source = checked_table(shipped_calibration() if table is None else table, level)
+    if width is not None:
+        widths = np.unique(source.filter(pl.col("dx") != pl.col("width"))["width"].to_numpy())
+        if not np.any(np.abs(widths - width) <= 1e-6 * width):
+            raise InvalidInputError(f"no spot width of {width * 1e3:g} mm is calibrated (spot widths: "
+                                    f"{', '.join(f'{w * 1e3:g}' for w in widths) or 'none'} mm)")
+    calibrated = np.unique(source["youngs_modulus"].to_numpy())
     frames = []
-    for modulus in youngs_moduli:
-        rows = interpolated(source.filter(pl.col("level") == level), float(dx), float(modulus), width)
+    for modulus in moduli:
+        rows = interpolated(source, float(dx), modulus, width)
         if rows is None:
             return pl.DataFrame(schema=STATEMENT_SCHEMA)
         bias, within, between, se = (rows[c].to_numpy() for c in ("bias_db", "within_sd_db", "between_sd_db", "bias_se_db"))
-        segment_sd = np.sqrt(within ** 2 + between ** 2)
-        run_sd = np.sqrt(within ** 2 / float(n_segments) + between ** 2)
+        files = rows["files"].cast(pl.Float64).to_numpy()
+        within_dof = np.maximum(rows["segments"].cast(pl.Float64).to_numpy() - files, 1.0)
+        file_dof = np.maximum(files - 1.0, 1.0)
         if correct:
             systematic = (np.abs(bias) > SYSTEMATIC * se) & (np.abs(bias) >= MATERIAL_DB)
             correction = np.where(systematic, bias, 0.0)
-            residual = np.where(systematic, 0.0, np.abs(bias))
-            own = np.where(systematic, se, 0.0)
-            segment_u = residual + COVERAGE * np.sqrt(segment_sd ** 2 + own ** 2)
-            run_u = residual + COVERAGE * np.sqrt(run_sd ** 2 + own ** 2)
         else:
             correction = np.full(bias.size, np.nan)
-            segment_u = np.abs(bias) + COVERAGE * segment_sd
-            run_u = np.abs(bias) + COVERAGE * run_sd
+        residual = np.abs(bias - np.nan_to_num(correction))
+        uncertainty = [residual + expanded(within, np.hypot(between, se), count, within_dof, file_dof)
+                       for count in (1.0, segments)]
         frames.append(pl.DataFrame({
-            "youngs_modulus": np.full(bias.size, float(modulus)), "band": rows["band"].to_numpy(),
+            "youngs_modulus": np.full(bias.size, modulus), "band": rows["band"].to_numpy(),
             "sampling_bias_db": bias, "sampling_correction_db": correction,
-            "sampling_uncertainty_db": segment_u, "sampling_run_uncertainty_db": run_u,
+            "sampling_uncertainty_db": uncertainty[0], "sampling_run_uncertainty_db": uncertainty[1],
+            "sampling_note": [outside_moduli(modulus, calibrated)] * bias.size,
         }, schema=STATEMENT_SCHEMA).with_columns(pl.col("sampling_correction_db").fill_nan(None)))
     return pl.concat(frames)
 
@@ -214,6 +369,9 @@ def contact_resolved_to(statement: pl.DataFrame, centre_wavelengths: dict[int, f
         return None
     worst = statement.group_by("band").agg(pl.col("sampling_run_uncertainty_db").max()).sort("band")
     resolved = None
+    missing = sorted(set(worst["band"].to_list()) - set(centre_wavelengths))
+    if missing:
+        raise InvalidInputError(f"centre_wavelengths holds no centre for band(s) {missing} of the statement")
     for band, value in worst.iter_rows():   # longest wavelength first (band numbers rise as wavelengths fall)
         if value is None or value > threshold_db:
             break
@@ -230,9 +388,10 @@ PRESSURE_TOLERANCE = 0.25
 
 def calibration_applies(segment_length: float, mean_pressure: float, band_kind: str, band_method: str) -> str | None:
     """None when the shipped calibration applies to a job's settings, else why not (a sentence)."""
-    if abs(segment_length - CALIBRATED_SEGMENT_LENGTH) > 0.01 * CALIBRATED_SEGMENT_LENGTH:
+    # "not within" rather than "beyond": a NaN setting is not the calibrated one
+    if not abs(segment_length - CALIBRATED_SEGMENT_LENGTH) <= 0.01 * CALIBRATED_SEGMENT_LENGTH:
         return f"calibrated on {CALIBRATED_SEGMENT_LENGTH:g} m segments, not {segment_length:g} m"
-    if abs(mean_pressure / CALIBRATED_PRESSURE - 1.0) > PRESSURE_TOLERANCE:
+    if not abs(mean_pressure / CALIBRATED_PRESSURE - 1.0) <= PRESSURE_TOLERANCE:
         return f"calibrated at a mean pressure of {CALIBRATED_PRESSURE / 1e6:g} MPa, not {mean_pressure / 1e6:g} MPa"
     if band_kind != "third_octave" or band_method != "dft":
         return "calibrated on third-octave DFT band levels"
@@ -243,18 +402,42 @@ def run_statement(file_dx: float, dx_used: float, length: float, segment_length:
                   youngs_moduli: Sequence[float], mean_pressure: float, band_kind: str, band_method: str,
                   centre_wavelengths: dict[int, float], correct: bool = False
                   ) -> tuple[pl.DataFrame, float | None, float | None]:
-    """A line run's sampling statement: (:func:`sampling_statement` rows, the sampling it is for in m
-    (the coarser of the file's interval ``file_dx`` and the job's ``dx_used``, m), and
-    :func:`contact_resolved_to` in m). The run's mean is taken over ``min(n_segments, length /
-    segment_length)`` independent segments (overlapping segments add none). No rows and None
-    where the calibration does not apply (:func:`calibration_applies`, or a sampling coarser than
-    it holds)."""
-    empty = pl.DataFrame(schema=STATEMENT_SCHEMA)
-    if calibration_applies(segment_length, mean_pressure, band_kind, band_method) is not None:
-        return empty, None, None
+    """A line run's sampling statement: (rows of :data:`STATEMENT_SCHEMA` for every distinct
+    modulus and every band of ``centre_wavelengths``, the sampling it is for in m (the coarser of
+    the file's interval ``file_dx`` and the job's ``dx_used``, m), and :func:`contact_resolved_to`
+    in m). The run's mean is taken over ``min(n_segments, length / segment_length)`` independent
+    segments (overlapping segments add none). Where nothing is stated (the calibration does not
+    apply: :func:`calibration_applies`; a sampling coarser than it holds; a band outside the
+    calibrated ones) the row's figures are null and ``sampling_note`` says why; a correction asked
+    for (``correct``) and not made says so there too. The sampling and resolution are None where
+    no band is stated."""
+    moduli = statement_moduli(youngs_moduli)
+    bands = sorted(centre_wavelengths)
+
+    def noted(statement: pl.DataFrame, reason: str | None) -> pl.DataFrame:
+        """Every (modulus, band) of the run: the statement's rows, the others null with ``reason``."""
+        keys = pl.DataFrame({"youngs_modulus": np.repeat(moduli, len(bands)), "band": np.tile(bands, len(moduli))},
+                            schema={"youngs_modulus": pl.Float64, "band": pl.Int64})
+        figures = [c for c in STATEMENT_SCHEMA if c not in ("youngs_modulus", "band", "sampling_note")]
+        joined = keys.join(statement, on=["youngs_modulus", "band"], how="left", maintain_order="left")
+        stated = pl.col("sampling_run_uncertainty_db").is_not_null()
+        return joined.with_columns(pl.when(stated).then(pl.col("sampling_note")).otherwise(pl.lit(reason))
+                                   .alias("sampling_note")).select(list(STATEMENT_SCHEMA)).with_columns(
+            [pl.col(c).cast(STATEMENT_SCHEMA[c]) for c in figures])
+
+    asked = " (--sampling-correction asked for, not applied)" if correct else ""
+    why = calibration_applies(segment_length, mean_pressure, band_kind, band_method)
+    if why is not None:
+        return noted(pl.DataFrame(schema=STATEMENT_SCHEMA), f"no sampling statement: {why}{asked}"), None, None
     sampling = max(float(file_dx), float(dx_used))
     independent = max(1.0, min(float(n_segments), length / segment_length))
-    statement = sampling_statement(sampling, youngs_moduli, independent, correct=correct)
+    statement = sampling_statement(sampling, moduli, independent, correct=correct)
     if statement.is_empty():
-        return empty, None, None
-    return statement, sampling, contact_resolved_to(statement, centre_wavelengths)
+        coarsest = float(shipped_calibration().filter(pl.col("dx") == pl.col("width"))["dx"].max())
+        return noted(statement, f"no sampling statement: sampled every {sampling * 1e3:.4g} mm, coarser than the "
+                                f"calibration's {coarsest * 1e3:g} mm{asked}"), None, None
+    calibrated = sorted(set(statement["band"].to_list()))
+    labels = f"bands {min(calibrated)} to {max(calibrated)}" if calibrated else "no band"
+    rows = noted(statement, f"no sampling statement: the band is outside the calibrated ones ({labels}){asked}")
+    stated = {b: w for b, w in centre_wavelengths.items() if b in calibrated}
+    return rows, sampling, contact_resolved_to(statement.filter(pl.col("band").is_in(list(stated))), stated) if stated else None

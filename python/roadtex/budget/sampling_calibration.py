@@ -176,14 +176,17 @@ def run_segments(starts: np.ndarray, segment_length: float) -> np.ndarray:
 
 
 def leave_one_out(differences: pl.DataFrame, *, level: str = "enveloped", correct: bool = False,
-                  segment_length: float = 0.5) -> pl.DataFrame:
+                  segment_length: float = 0.5, long_run: bool = False) -> pl.DataFrame:
     """Each file of ``differences`` (:func:`file_differences`, several files) predicted from a
     calibration of the others (:func:`roadtex.budget.sampling.summarise`): per (file, dx, width,
     modulus, band) the actual difference of the run's mean level (the energetic mean over the
     file's non-overlapping segments, as the report averages; minus the correction when
     ``correct``) from the fine data's, the stated run-mean uncertainty, ``covered``
     (|actual| <= stated), and ``segments_covered``: the share of the file's segments (all of them,
-    overlapping ones too) whose own difference the single-segment uncertainty covers."""
+    overlapping ones too) whose own difference the single-segment uncertainty covers. ``long_run``:
+    the long-run limit instead, the mean over every segment of the file (overlapping ones too)
+    against the statement for infinitely many segments (what the calibration itself knows: the
+    between-file scatter and the bias's own standard error)."""
     from roadtex.budget.sampling import sampling_statement, summarise
 
     files = sorted(set(differences["file"].to_list()))
@@ -194,11 +197,12 @@ def leave_one_out(differences: pl.DataFrame, *, level: str = "enveloped", correc
         table = summarise(differences.filter(pl.col("file") != held), level, segment_length)
         every = differences.filter(pl.col("file") == held)
         starts = np.unique(every["start"].to_numpy())
-        run = starts[run_segments(starts, segment_length)]
+        run = starts if long_run else starts[run_segments(starts, segment_length)]
         test = every.filter(pl.col("start").is_in(run.tolist()))
         moduli = np.unique(test["youngs_modulus"].to_numpy())
         for (dx, width), case in test.group_by(["dx", "width"], maintain_order=True):
-            statement = sampling_statement(dx, moduli, run.size, correct=correct, table=table, level=level,
+            statement = sampling_statement(dx, moduli, np.inf if long_run else run.size, correct=correct, table=table,
+                                           level=level,
                                            width=None if dx == width else width)
             for (modulus, band), cell in case.group_by(["youngs_modulus", "band"], maintain_order=True):
                 fine = cell[f"fine_{level}"].to_numpy()

@@ -141,6 +141,7 @@ class Pilot:
     # k -> (levels, seconds per metre, work per metre) of the pilot segments at tol 1e-10 on each grid solved
     sequence: dict[int, tuple[np.ndarray, float, float]] = dataclasses.field(default_factory=dict)
     interpolant_spread: np.ndarray | None = None   # (bands,) what the sampling cannot tell (dB)
+    band_method: Method = "dft"      # how the job computes band levels: the pilot's levels the same way
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -240,7 +241,7 @@ def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refin
                          raise_on_nonconvergence=False)
     seconds = time.perf_counter() - start
     levels, ok = contact_levels(batch.envelope, batch.pressure, dx / refine, pilot.bands["band"].to_numpy(),
-                                pilot.band_kind)
+                                pilot.band_kind, pilot.band_method)
     return levels, ok, seconds, solver_work(batch.iterations, model.shape[1])
 
 
@@ -256,10 +257,11 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
                 threads: int | None, include_reference_error: bool = True,
                 budget_db: float = DEFAULT_ERROR_BUDGET_DB, max_refine: int = MAX_REFINE,
-                interpolants: bool = True) -> Pilot:
+                interpolants: bool = True, band_method: str = "dft") -> Pilot:
     """The reference side of a study (module docstring, steps 1, 2 and 5): ``max_refine`` caps K;
     ``interpolants`` False skips step 5; ``include_reference_error`` False solves the data's own
-    grid only (K = 1) and states no reference error."""
+    grid only (K = 1) and states no reference error; ``band_method`` ("dft" or "filter") is how
+    the job computes its band levels, and so every level of the pilot."""
     profiles = as_profiles(profile)
     moduli = np.atleast_1d(np.asarray(youngs_moduli, dtype=np.float64))
     if moduli.size == 0 or not np.all(np.isfinite(moduli) & (moduli > 0)):
@@ -269,9 +271,12 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     length = positive(segment_length, "segment_length", "m")
     budget = positive(budget_db, "budget_db", "dB")
     largest_refine = whole_number(max_refine, "max_refine", 1)
+    if band_method not in ("dft", "filter"):
+        raise InvalidInputError(f"band_method must be 'dft' or 'filter', got {band_method!r}")
+    method: Method = "filter" if band_method == "filter" else "dft"
     cleaned = cleaned_profiles(profiles, spike_alpha)
     heights, starts, dx = segments_of(cleaned, None, length)
-    texture = band_levels(heights, dx, kind=kind, periodic=True)
+    texture = band_levels(heights, dx, kind=kind, periodic=True, method=method)
     bands = texture.bands.filter(pl.col("reported"))
     if bands.is_empty():
         raise InvalidInputError(f"no band is reported for segments of {length:g} m sampled every {dx:.3g} m")
@@ -281,7 +286,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     pilot = Pilot(cleaned, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
                   length, kind, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
-                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0)
+                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method)
     pilot_heights = heights[chosen]
     metres = chosen.size * length
 
@@ -376,7 +381,7 @@ def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Texture level error per band over every segment at ``dx`` (resampling only), reported flags, points."""
     heights, starts, used = segments_of(pilot.cleaned, dx, pilot.segment_length)
-    levels = band_levels(heights, used, kind=pilot.band_kind, periodic=True)
+    levels = band_levels(heights, used, kind=pilot.band_kind, periodic=True, method=pilot.band_method)
     columns, ok = band_columns(levels.bands, pilot.bands["band"].to_numpy())
     rows = match(starts, pilot.starts)
     error = difference(levels.levels[rows][:, columns], pilot.texture).max(axis=0)
@@ -470,7 +475,7 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
                       spike_alpha: float | None = None, max_iterations: int = 2000,
                       threads: int | None = None, include_reference_error: bool = True,
                       refine_candidates: Sequence[int] | None = None,
-                      budget_db: float = DEFAULT_ERROR_BUDGET_DB) -> pl.DataFrame:
+                      budget_db: float = DEFAULT_ERROR_BUDGET_DB, band_method: str = "dft") -> pl.DataFrame:
     """The pilot's table: the estimated level error and the cost of every (dx, k, tol) candidate.
 
     Args:
@@ -494,6 +499,7 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
         refine_candidates: model grid refinements k to try on every dx (None: the file's dx
             refined 2, 3, 4, 6, ... times up to the reference's).
         budget_db: the budget (dB) the reference converges to a quarter of.
+        band_method: "dft" (default) or "filter": how the levels are computed (the job's ``--band-method``).
 
     Returns:
         A polars table, one row per (dx, k, tol, band) for the bands reported at the file's dx:
@@ -513,7 +519,8 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
     pilot = build_pilot(profile, youngs_moduli=youngs_modulus, mean_pressure=mean_pressure, poisson=poisson,
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
-                        include_reference_error=include_reference_error, budget_db=budget_db, interpolants=False)
+                        include_reference_error=include_reference_error, budget_db=budget_db, interpolants=False,
+                        band_method=band_method)
     refines = None if refine_candidates is None else [whole_number(k, "refine_candidates", 1) for k in refine_candidates]
     settings = default_settings(pilot, check_candidates(dx_candidates, "dx_candidates"), refines)
     tols = check_candidates(tol_candidates, "tol_candidates") or list(DEFAULT_TOLERANCES)

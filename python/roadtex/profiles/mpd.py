@@ -65,6 +65,9 @@ class MpdResult:
         unused_length: the profile's end (m) after the last whole segment, shorter than a segment,
             which ISO 13473-1 leaves out (also stated in the profile's last history line).
         parameters: the settings used.
+        first_reading: position (m) of the first raw reading the segments cover (after any
+            reference plate): the run's start, half a reading interval after the first segment's
+            ``start`` (each reading stands for the interval around it). None when not known.
     """
 
     mpd: float
@@ -77,6 +80,7 @@ class MpdResult:
     profile: Profile
     unused_length: float = 0.0
     parameters: dict[str, object] = field(default_factory=dict)
+    first_reading: float | None = None
 
     @property
     def msd(self) -> np.ndarray:
@@ -267,5 +271,5 @@ def mpd(profile: Profile, *, spike_alpha: float | None = 3.0, sample_spacing: fl
     return MpdResult(mpd=mean_depth, etd=estimated_texture_depth(mean_depth, etd_edition) if n_valid else float("nan"),
                      std=std, segments=table, valid_segments=n_valid, valid_fraction=share_valid,
                      is_valid=share_valid >= min_valid, profile=used_profile, unused_length=unused,
-                     parameters=parameters)
+                     parameters=parameters, first_reading=float(raw.positions[0]))
 
