@@ -15,7 +15,7 @@ from roadtex.demo import write_synthetic_archive
 from roadtex.profiles import synthetic_pavement
 from roadtex.report import build_report
 from roadtex.report.data import load_results
-from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, level_differences, surface_error_table
+from roadtex.report.surface_figures import AGREEMENT_DB, agreement_table, line_minus_areal, surface_error_table
 
 OPTIONS = ProcessingOptions(segment_length=0.2, youngs_moduli=(2e6, 5e6), tol=1e-8)
 
@@ -58,13 +58,13 @@ def test_extruded_surface_agrees_in_every_band(mixed_results: Path) -> None:
     """Plane strain: on a surface that is a line profile extruded across the road, the line model
     and the areal model give the same envelope, so every band is within 0.5 dB (in fact ~0)."""
     results = load_results(mixed_results)
-    differences = level_differences(results).filter(pl.col("group") == "extruded")
+    differences = line_minus_areal(results).filter(pl.col("group") == "extruded")
     assert differences.height > 0 and differences["difference_db"].abs().max() < 1e-6
     table = agreement_table(results).filter(pl.col("pavement") == "extruded")
     assert table.height == 2
     assert set(table["bands beyond (mm)"]) == {"none"}
     # a real 3D surface is not plane strain: somewhere the models differ
-    other = level_differences(results).filter(pl.col("group") == "dense_asphalt")
+    other = line_minus_areal(results).filter(pl.col("group") == "dense_asphalt")
     assert other["difference_db"].abs().max() > 1e-3
 
 
