@@ -4,6 +4,8 @@ error estimates joined. It reads the run folders and never writes them."""
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import os
 import platform
 from pathlib import Path
@@ -67,11 +69,13 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], plan: JobPl
     surface_error_files: list[Path] = []
     pilot_notes: dict[str, str] = {}
     entries: dict[str, RunPlan] = {}
+    included: list[tuple[str, str, str | None]] = []
     for run in manifest.iter_rows(named=True):
         run_dir = out / "runs" / run["run_id"]
         status = read_status(run_dir)
         if status is None or status.get("options_fingerprint") != options_fingerprint:
             continue
+        included.append((str(run["run_id"]), str(run["path"]), status.get("fingerprint")))
         if status["state"] == "error":
             errors.append({name: status.get(name) for name in ERROR_SCHEMA})
             continue
@@ -95,6 +99,11 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], plan: JobPl
     schemas = {"segments": SEGMENT_SCHEMA, "bands": RUN_BAND_SCHEMA, "runs": RUN_RUN_SCHEMA, "examples": EXAMPLE_SCHEMA,
                "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES, **SECTION_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
+    key = combined_key(plan, included)
+    kept = kept_tables(out, key, [*parts, "pilot", "errors"])
+    if kept is not None:   # nothing new since the last job: its tables, verified
+        return write_parameters(out, plan, manifest.height, pilot_notes, key, {**kept,
+                                                                                "edge_effect": kept_edge_effect(out, plan)})
     estimates = run_estimates(plan, entries)
     surface_ids = [run["run_id"] for run in manifest.iter_rows(named=True) if is_surface_run(run)]
     own = surface_estimates(surface_error_files, options.error_budget_db)
@@ -119,20 +128,58 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], plan: JobPl
     error_table = pl.DataFrame(errors, schema=ERROR_SCHEMA)
     write_atomically(out / "errors.parquet", lambda p: error_table.write_parquet(p, **table_options(TABLES["errors"])))
     written["errors"] = out / "errors.parquet"
+    return write_parameters(out, plan, manifest.height, pilot_notes, key, written)
+
+
+def write_parameters(out: Path, plan: JobPlan, runs: int, pilot_notes: dict[str, str], key: str | None,
+                     written: dict[str, Path]) -> dict[str, Path]:
+    """parameters.json: the options, the plan, units, versions, the checksums of the combined tables
+    ``written`` (verified by the report, and by the next job before it keeps them) and ``key``
+    (:func:`combined_key`); returns ``written`` with it (and the runs' folder with kept profiles)."""
+    options = plan.options
     write_json(out / "parameters.json", {
-        "options": dataclasses.asdict(options), "options_fingerprint": options_fingerprint,
-        "plan": plan.summary(),
+        "options": dataclasses.asdict(options), "options_fingerprint": options.fingerprint(),
+        "plan": plan.summary(), "combined_key": key,
         # surface runs whose areal pilot could not run (their levels have no error estimate), and why
         "surface_pilot_notes": pilot_notes,
         "units": {"options": OPTION_UNITS, **{name: units(columns) for name, columns in TABLES.items()}},
-        "versions": software_versions(), "runs": manifest.height,
+        "versions": software_versions(), "runs": runs,
         # verified by the report before it draws anything (a table damaged since is refused)
         "checksums": checksums(out, [path.name for path in written.values()]),
     })
-    written["parameters"] = out / "parameters.json"
+    written = {**written, "parameters": out / "parameters.json"}
     if options.keep_profiles:
         written["profiles"] = out / "runs"
     return written
+
+
+def combined_key(plan: JobPlan, included: list[tuple[str, str, str | None]]) -> str:
+    """What the combined tables depend on: the runs they hold, in order, with their fingerprints,
+    the options, the plan's decisions (a kept pilot's study rows are its own, so pilot.parquet is
+    too) and the version."""
+    decided = [(p.name, p.data_dx, p.refine, p.tol, sorted(p.band_error_db.items()), p.worst_error_db,
+                p.within_budget, sorted(p.interpolant_spread_db.items()), p.pilot_runs) for p in plan.pilots]
+    payload = json.dumps([plan.options.fingerprint(), __version__, included, decided, plan.failed_pilots,
+                          plan.unread_runs], sort_keys=True, default=str)
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def kept_tables(out: Path, key: str | None, names: list[str]) -> dict[str, Path] | None:
+    """The combined tables ``names`` of the previous job when its parameters.json holds ``key`` and
+    every table still matches its recorded checksum; else None (they are written anew)."""
+    if key is None:
+        return None
+    try:
+        previous = json.loads((out / "parameters.json").read_text(encoding="utf-8"))
+        recorded = previous["checksums"]
+        if previous.get("combined_key") != key:
+            return None
+        paths = {name: out / f"{name}.parquet" for name in names}
+        if all(recorded.get(path.name) == file_sha256(path) for path in paths.values()):
+            return paths
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        pass
+    return None
 
 
 def kept_edge_effect(out: Path, plan: JobPlan) -> Path:
@@ -140,8 +187,6 @@ def kept_edge_effect(out: Path, plan: JobPlan) -> Path:
     job's parameters.json records the same options and the file's checksum (a rerun solves nothing)."""
     path = out / "edge_effect.parquet"
     try:
-        import json
-
         previous = json.loads((out / "parameters.json").read_text(encoding="utf-8"))
         if (previous.get("options_fingerprint") == plan.options.fingerprint()
                 and previous.get("checksums", {}).get(path.name) == file_sha256(path)):

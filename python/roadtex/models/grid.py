@@ -35,8 +35,6 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
-from scipy.signal import resample
 
 from roadtex._checks import whole_number
 from roadtex.errors import InvalidInputError
@@ -106,6 +104,8 @@ def refine_periodic(heights: np.ndarray, refine: int, interpolant: Interpolant =
         ``"bandlimited"`` to rounding), the others lie on the interpolant, the wrap from the last
         reading to the first included.
     """
+    from scipy.interpolate import PchipInterpolator
+    from scipy.signal import resample  # scipy on first use: the command line starts without it
     k = check_refine(refine)
     kind = check_interpolant(interpolant)
     z = np.asarray(heights, dtype=np.float64)

@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Literal, Protocol, TypeVar
 
 import numpy as np
-from scipy import ndimage, signal
 
 from roadtex._checks import finite_number, positive
 from roadtex.errors import ConditioningWarning, InvalidInputError
@@ -390,6 +389,7 @@ def zero_phase_filter(profile: Profile, cutoff_wavelength: float, kind: Literal[
     0.28 mm, 24 cases; now 0.51 mm and 0.04 mm). A longer odd reflection doubles the end's
     deviation from the local level; an even one kinks a grade. For the low-pass (15 samples at
     0.5 mm) the 9-sample reflection measured better on random texture."""
+    from scipy import signal  # scipy on first use: the command line starts without it
     wavelength = positive(cutoff_wavelength, "cutoff_wavelength")
     require_grid(profile, f"{kind}pass")
     if wavelength <= 2.0 * profile.dx:
@@ -470,6 +470,7 @@ class CleaningSummary:
 
 def spike_mask(profile: Profile, alpha: float) -> np.ndarray:
     """Readings that are spikes by the sampling-independent criterion of this module (True = spike)."""
+    from scipy import ndimage  # scipy on first use: the command line starts without it
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = profile.heights
     valid = ~np.isnan(z)

@@ -58,7 +58,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy import signal
 
 from roadtex.spectra.bands import BandKind, band_numbers
 
@@ -160,6 +159,7 @@ class FilterBank:
 
 def _tail_settle(sos: np.ndarray, fraction: float) -> int:
     """Samples after which the impulse response of ``sos`` keeps less than ``fraction`` of its energy."""
+    from scipy import signal  # scipy on first use: the command line starts without it
     length = 1 << 10
     while True:
         x = np.zeros(length)
@@ -176,6 +176,7 @@ def _tail_settle(sos: np.ndarray, fraction: float) -> int:
 def _band_design(low: float, centre: float, high: float, kind: BandKind) -> np.ndarray:
     """The lowest-order Butterworth band-pass (edges low, high in cycles per sample) whose response
     meets the class-1 mask with MASK_MARGIN, checked on a dense grid up to Nyquist."""
+    from scipy import signal  # scipy on first use: the command line starts without it
     omega = np.geomspace(1e-3 / centre, 0.4999 / centre, 4000)
     lower, upper = class1_limits(omega, kind)
     for order in range(BAND_ORDER, MAX_BAND_ORDER + 1):
@@ -192,6 +193,7 @@ def _band_design(low: float, centre: float, high: float, kind: BandKind) -> np.n
 @lru_cache(maxsize=64)
 def filter_bank(dx: float, kind: BandKind) -> FilterBank:
     """The band filters for sampling interval ``dx`` (m) and ``kind``: see the module docstring."""
+    from scipy import signal  # scipy on first use: the command line starts without it
     half = 0.5 if kind == "third_octave" else 1.5
     numbers = band_numbers(kind)
     decimator = signal.butter(DECIMATION_ORDER, 2 * DECIMATION_CUTOFF, btype="lowpass", output="sos")
@@ -230,6 +232,7 @@ def filtered_mean_squares(block: np.ndarray, bank: FilterBank, periodic: bool) -
     Returns (mean_square, measured_length): (rows, bands) mean squares (NaN where the band has no
     filter or no sample left after settling) and, per band, the length (m) the mean is taken over.
     """
+    from scipy import signal  # scipy on first use: the command line starts without it
     n_bands = len(bank.bands)
     mean_square = np.full((block.shape[0], n_bands), np.nan)
     measured = np.zeros(n_bands)

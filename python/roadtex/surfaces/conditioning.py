@@ -14,7 +14,6 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import ndimage
 
 from roadtex._checks import positive
 from roadtex.errors import InvalidInputError
@@ -88,6 +87,7 @@ def spike_mask(surface: Surface, alpha: float) -> np.ndarray:
     keeps sharp corners of steep stone edges, which a 2-D window alone flags at fine sampling
     (most of the window lies on the other side of a right-angled corner), and never flags more on
     a row than the line criterion would. Drop-outs are filled for the medians only."""
+    from scipy import ndimage  # scipy on first use: the command line starts without it
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = surface.heights
     valid = ~np.isnan(z)
