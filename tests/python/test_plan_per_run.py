@@ -124,8 +124,13 @@ def test_a_rerun_with_nothing_new_calls_no_solver_and_no_pilot(small_archive, mo
     job(manifest(rows, path), out, SMALL)
     before = {name: (out / name).read_bytes() for name in ("segments.parquet", "bands.parquet", "runs.parquet")}
     forbid_solves(monkeypatch)
+    import roadtex.archive.combine as combine
+    written: list[str] = []
+    real_write = combine.write_atomically
+    monkeypatch.setattr(combine, "write_atomically", lambda path, fn: written.append(path.name) or real_write(path, fn))
     summary = job(path, out, SMALL)
     assert (summary.skipped, summary.processed) == (2, 0)
+    assert written == []   # the combined tables kept (their checksums verified), not written again
     assert {name: (out / name).read_bytes() for name in before} == before
     assert json.loads((out / "parameters.json").read_text())["plan"]["reused_pilots"]
 
@@ -177,3 +182,12 @@ def test_a_run_of_a_sampling_no_pilot_read_says_where_its_errors_come_from(tmp_p
     assert runs["a1"]["dx_used"] == 1e-3 and runs["a1"]["model_dx"] <= pilot["model_dx"] * (1 + 1e-9)
     assert runs["a1"]["worst_level_error_db"] == pilot["worst_error_db"]
     assert runs["a0"]["error_source"] == f"the pilot of its group ({next(iter(plan['group_errors']))})"
+
+
+def test_a_combined_table_damaged_since_is_written_again_on_a_rerun(small_archive) -> None:
+    path, out, rows = small_archive
+    job(manifest(rows, path), out, SMALL)
+    good = (out / "bands.parquet").read_bytes()
+    (out / "bands.parquet").write_bytes(good[: len(good) // 2])
+    job(path, out, SMALL)
+    assert (out / "bands.parquet").read_bytes() == good

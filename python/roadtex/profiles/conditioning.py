@@ -299,7 +299,15 @@ def trim_reference_plates(profile: Profile, *, threshold: float = PLATE_HEIGHT, 
 
 
 def remove_spikes(profile: Profile, alpha: float = 3.0) -> Profile:
-    """Flags spikes as drop-outs (ISO 13473-1:2019 Annex E); documented at :meth:`Profile.remove_spikes`."""
+    """Flags spikes as drop-outs (ISO 13473-1:2019 Annex E); documented at :meth:`Profile.remove_spikes`.
+
+    Why two spike tests (this one and :func:`spike_mask`): this is the standard's own, a jump of
+    alpha x dx between consecutive readings, which the MPD computes on its 0.5 mm grid
+    (``mpd_spike_alpha``) so that MPD is ISO 13473-1's (and agrees with the captif-slp peer). On the
+    file's own readings the same jump test means another thing at every sampling (at 0.0375 mm it
+    flags any stone edge steeper than alpha), so the cleaning before the contact model uses
+    :func:`spike_mask`, which judges a reading against the median of 0.5 mm around it whatever the
+    sampling (``spike_alpha``)."""
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = profile.heights.copy()
     valid_index = np.flatnonzero(~np.isnan(z))
@@ -469,7 +477,8 @@ class CleaningSummary:
 
 
 def spike_mask(profile: Profile, alpha: float) -> np.ndarray:
-    """Readings that are spikes by the sampling-independent criterion of this module (True = spike)."""
+    """Readings that are spikes by the sampling-independent criterion of this module (True = spike);
+    why it is not ISO 13473-1's jump test: :func:`remove_spikes`."""
     from scipy import ndimage  # scipy on first use: the command line starts without it
     alpha_f = positive(alpha, "alpha", "a slope, no unit")
     z = profile.heights
