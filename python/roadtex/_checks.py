@@ -222,18 +222,19 @@ def spacing_of(values: object, dx: object, name: str, dy: object = None, *,
     Profile or Surface must be the one it carries (to 1e-9 of it): two different spacings are a
     mistake, not a choice; a Profile whose readings are not equally spaced is refused (resample it).
     ``dy`` is None where a surface array is given without one."""
-    from roadtex.profiles.profile import Profile  # here: roadtex.profiles imports this module
-    from roadtex.surfaces.surface import Surface
-
-    kind = Surface if surface else Profile
-    if isinstance(values, Profile if surface else Surface):
+    # known by what they carry, not by their classes: this module is below roadtex.profiles and
+    # roadtex.surfaces, which import it (a Surface carries dy, a Profile does not)
+    carried_kind = ("Surface" if hasattr(values, "dy") else "Profile") if (
+        hasattr(values, "heights") and hasattr(values, "dx")) else None
+    kind = "Surface" if surface else "Profile"
+    if carried_kind is not None and carried_kind != kind:
         wanted = "a Surface (or a 2-D array)" if surface else "a Profile (or a 1-D array)"
         raise InvalidInputError(f"{name} is a {type(values).__name__}; this function takes {wanted}")
-    if not isinstance(values, kind):
+    if carried_kind is None:
         if dx is None:
-            raise InvalidInputError(f"dx (m) is required with an array of {name} (a {kind.__name__} carries its own)")
+            raise InvalidInputError(f"dx (m) is required with an array of {name} (a {kind} carries its own)")
         return values, to_float(dx, "dx"), None if dy is None else to_float(dy, "dy")
-    if isinstance(values, Profile) and not values.is_uniform:
+    if kind == "Profile" and not getattr(values, "is_uniform", True):
         raise InvalidInputError(f"{name}: the Profile's readings are not equally spaced (dx {values.dx:g} m); "
                                 "resample it first (Profile.resample)")
     carried = {"dx": float(values.dx)} | ({"dy": float(values.dy)} if surface else {})
@@ -242,8 +243,8 @@ def spacing_of(values: object, dx: object, name: str, dy: object = None, *,
             continue
         value = to_float(given, key)
         if abs(value - carried[key]) > 1e-9 * carried[key]:
-            raise InvalidInputError(f"{key} {value:g} m was given for a {kind.__name__} whose {key} is "
-                                    f"{carried[key]:g} m: leave {key} out (the {kind.__name__} carries it)")
+            raise InvalidInputError(f"{key} {value:g} m was given for a {kind} whose {key} is "
+                                    f"{carried[key]:g} m: leave {key} out (the {kind} carries it)")
     if not surface and dy is not None:
         raise InvalidInputError("dy is not an argument for a Profile")
     return values.heights, carried["dx"], carried.get("dy")

@@ -254,7 +254,7 @@ def _job(manifest: Path, out: Path) -> list[str]:
 #: a hook at a point of the job, not a race of a timer against it.
 KILL_JOB = """
 import os, signal, sys, threading
-import roadtex.archive.combine as combine
+import roadtex.archive.combined as combine
 import roadtex.archive.worker as worker
 from roadtex.cli import main
 kind, at = sys.argv[1].split(":")

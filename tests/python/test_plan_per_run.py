@@ -124,7 +124,7 @@ def test_a_rerun_with_nothing_new_calls_no_solver_and_no_pilot(small_archive, mo
     job(manifest(rows, path), out, SMALL)
     before = {name: (out / name).read_bytes() for name in ("segments.parquet", "bands.parquet", "runs.parquet")}
     forbid_solves(monkeypatch)
-    import roadtex.archive.combine as combine
+    import roadtex.archive.combined as combine
     written: list[str] = []
     real_write = combine.write_atomically
     monkeypatch.setattr(combine, "write_atomically", lambda path, fn: written.append(path.name) or real_write(path, fn))

@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 from roadtex.archive import ProcessingOptions, process
-from roadtex.archive.combine import surface_estimates, with_plan
+from roadtex.archive.combined import surface_estimates, with_plan
 from roadtex.archive.surface_run import error_table, line_rows
 from roadtex.budget import areal
 from roadtex.errors import ErrorBudgetWarning

@@ -189,10 +189,12 @@ def test_python_api_is_as_strict_as_the_cli() -> None:
     assert allowed.youngs_moduli == (1.0, 2.0, 5.0, 10.0)
     # the flag changes nothing computed: a job's runs stay current whichever way it is set
     assert ProcessingOptions(allow_implausible=True).fingerprint() == ProcessingOptions().fingerprint()
-    # a Profile where heights are taken: said what to pass
+    # a Profile where heights are taken: taken, with its own dx (issue 38); another dx is refused
     profile = synthetic_pavement("dense_asphalt", 0.1, DX, seed=1)
-    with pytest.raises(InvalidInputError, match=r"heights is a roadtex Profile.*pass its \.heights and \.dx"):
-        roadtex.contact(profile, DX, 2e6, 2e5)
+    given = roadtex.contact(profile, youngs_modulus=2e6, mean_pressure=2e5)
+    assert np.array_equal(given.pressure, roadtex.contact(profile.heights, DX, 2e6, 2e5).pressure)
+    with pytest.raises(InvalidInputError, match="leave dx out"):
+        roadtex.contact(profile, 2 * DX, 2e6, 2e5)
     # a surface resampled finer than its data: refused clearly, not a grid of NaN
     surface = Surface(np.random.default_rng(1).normal(0, 1e-4, (8, 64)), 1e-3, 2e-3)
     with pytest.raises(InvalidInputError, match="dx 0.0001 m is finer than the surface's own spacing 0.001 m"):

@@ -44,12 +44,12 @@ plan kept in ``OUT/plan/`` and reused), :mod:`~roadtex.archive.compute` (one lin
 :mod:`~roadtex.archive.surface_run` (one surface run: areal and line models),
 :mod:`~roadtex.archive.tables` (segment and band rows for both), :mod:`~roadtex.archive.worker` (one run:
 skip or compute, and its files), :mod:`~roadtex.archive.store` (atomic files, status),
-:mod:`~roadtex.archive.engines` (local, Dask, progress), :mod:`~roadtex.archive.combine` (the combined
+:mod:`~roadtex.archive.engines` (local, Dask, progress), :mod:`~roadtex.archive.combined` (the combined
 tables), :mod:`~roadtex.archive.comparison_tables` (the report's physics tables),
 :mod:`~roadtex.archive.outputs` (reading outputs back) and :mod:`~roadtex.archive.job` (the job).
 """
 
-from roadtex.archive.combine import combine, software_versions
+from roadtex.archive.combined import combine, software_versions
 from roadtex.archive.compute import compute_run
 from roadtex.archive.job import ProcessSummary, process
 from roadtex.archive.manifest import build_manifest, read_manifest

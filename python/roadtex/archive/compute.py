@@ -75,7 +75,7 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
     enveloped and pressure levels are taken on that grid in the data's bands; texture levels are
     the data's. ``plan`` may be bare :class:`ProcessingOptions` (:meth:`JobPlan.given`: no pilot).
     The plan's error estimates are added when the job combines the runs' tables
-    (:func:`roadtex.archive.combine.combine`).
+    (:func:`roadtex.archive.combined.combine`).
 
     Raises:
         RunFailure: with the stage that failed (read, condition, mpd, segment, spectra, solve). A run

@@ -8,7 +8,7 @@ frozen); :func:`process` makes the job's :class:`~roadtex.archive.plan.JobPlan` 
 :func:`roadtex.archive.worker.process_run`, which reads the run and takes its entry
 (:meth:`~roadtex.archive.plan.JobPlan.line_entry`) for :func:`roadtex.archive.compute.compute_run`,
 where the solve uses the entry's interval, model grid and tolerance and the options' moduli and
-pressure; :func:`roadtex.archive.combine.combine` joins the plan's estimates into the tables.
+pressure; :func:`roadtex.archive.combined.combine` joins the plan's estimates into the tables.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any, Literal, Sequence
 import polars as pl
 
 from roadtex._checks import positive_int, thread_count
-from roadtex.archive.combine import combine
+from roadtex.archive.combined import combine
 from roadtex.archive.engines import Progress, process_dask, process_local
 from roadtex.archive.manifest import read_manifest
 from roadtex.archive.options import ProcessingOptions

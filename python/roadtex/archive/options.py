@@ -34,9 +34,6 @@ MIN_JOB_DX = 1e-6
 MIN_SEGMENT_LENGTH = 0.01
 #: Solver tolerance without an error budget (relative residual).
 DEFAULT_TOL = 1e-6
-#: The largest model grid refinement a user may force (``refine``): the pilot's own ladder ends at 32,
-#: and a k of thousands would allocate gigabytes per segment before any solve (a typing slip).
-MAX_REFINE = 64
 #: The largest model grid of one line segment (points): 16 MB per array, a few seconds per solve.
 #: Beyond it a run is refused naming its segment length, interval and k (the job checks it per run:
 #: it depends on the file's interval).
@@ -191,11 +188,7 @@ class ProcessingOptions:
                                         "texture profilometer samples: is it in the wrong unit? dx is in metres "
                                         "(0.5 mm is 0.5e-3)")
         if self.refine is not None:
-            object.__setattr__(self, "refine", check_refine(self.refine))
-            if self.refine > MAX_REFINE:
-                raise InvalidInputError(f"refine = {self.refine} is above {MAX_REFINE}: a model grid {self.refine} times "
-                                        "finer than the data would need gigabytes per segment (the error budget's "
-                                        "pilot chooses k up to 32 by itself: leave refine unset)")
+            object.__setattr__(self, "refine", check_refine(self.refine))   # at most MAX_REFINE
         check_interpolant(self.interpolant)
         if not isinstance(self.sampling_correction, (bool, np.bool_)):
             raise InvalidInputError(f"sampling_correction must be True or False, got {self.sampling_correction!r}")

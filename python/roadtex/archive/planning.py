@@ -85,7 +85,10 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     roadtex, the pilot's files unchanged and still the group's) reuses it without reading or solving
     anything, and each pilot made is kept there for the next job.
     """
-    if options.error_budget_db is None or not runs:
+    if not runs:   # surface runs only: each has its own pilot, spacings and tolerance
+        return JobPlan(options=options, source="no line run to plan for (surface runs: their own spacings, and their "
+                                                "own pilots' tolerances and error estimates)"), pl.DataFrame()
+    if options.error_budget_db is None:
         return JobPlan.given(options), pl.DataFrame()
     # the pilots sample runs by position: in a stable order, so that the same runs listed in another
     # order give the same plan (32 runs reversed gave worst errors of 0.381 against 0.415 dB)
