@@ -116,7 +116,7 @@ def test_a_job_of_surface_runs_only_has_a_report(tmp_path: Path) -> None:
 
 def test_surface_runs_over_budget_are_marked_apart_from_profile_runs(mixed_results: Path) -> None:
     """Issue 40: a pavement whose surface runs state errors over the budget in a band where its
-    profile runs are within it gets that band hatched apart (grey, "surface runs only"), not red;
+    profile runs are within it gets that band marked apart (orange dots, "surface runs only"), not red;
     a band over the budget in a profile run stays red. The stated errors are set here so that each
     kind is over in one band of its own."""
     import matplotlib

@@ -101,9 +101,9 @@ def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None, run
 def mark_over_budget(ax: Any, positions: list[float], surfaces: bool = False) -> None:
     """Hatches the band positions ``positions`` (x, one unit wide) of ``ax``: levels whose stated
     error exceeds the budget (labelled :data:`OVER_BUDGET_LABEL` once, for the legend); with
-    ``surfaces``, bands over it in a pavement's surface runs only, hatched apart (grey, the other
-    way; :data:`SURFACE_OVER_BUDGET_LABEL`)."""
-    colour, hatch, label, gid = (("#7f7f7f", "\\\\\\", SURFACE_OVER_BUDGET_LABEL, "over_budget_surfaces") if surfaces
+    ``surfaces``, bands over it in a pavement's surface runs only, marked apart (orange dots: the
+    grey back-hatch is the sampling-limited bands'; :data:`SURFACE_OVER_BUDGET_LABEL`)."""
+    colour, hatch, label, gid = (("#ff7f0e", "..", SURFACE_OVER_BUDGET_LABEL, "over_budget_surfaces") if surfaces
                                  else ("#d62728", "///", OVER_BUDGET_LABEL, "over_budget"))
     for index, x in enumerate(sorted(positions)):
         ax.axvspan(x - 0.5, x + 0.5, facecolor="none", edgecolor=colour, hatch=hatch, lw=0, alpha=0.5, zorder=0,

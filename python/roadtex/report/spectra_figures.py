@@ -182,7 +182,7 @@ def fig_pressure_vs_texture(plt, results: Results):
                     color="#d62728", gid="over_budget")
         elif over_surfaces & parts:
             ax.text(0.02, 0.98, "over the budget in surface runs only", transform=ax.transAxes, va="top",
-                    fontsize=7, color="#7f7f7f", gid="over_budget_surfaces")
+                    fontsize=7, color="#ff7f0e", gid="over_budget_surfaces")
         for colour, e in zip(COLOURS, results.moduli):
             pts = octaves.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
             ax.scatter(pts["enveloped_level"], pts["pressure_level"], s=12, color=colour, label=modulus_label(e))
