@@ -112,3 +112,51 @@ def test_a_job_of_surface_runs_only_has_a_report(tmp_path: Path) -> None:
     assert "No line-run pilot" in text and "error budget off" not in text
     plan = json.loads((tmp_path / "results" / "parameters.json").read_text())["plan"]
     assert plan["source"].startswith("no line run to plan for")
+
+
+def test_surface_runs_over_budget_are_marked_apart_from_profile_runs(mixed_results: Path) -> None:
+    """Issue 40: a pavement whose surface runs state errors over the budget in a band where its
+    profile runs are within it gets that band marked apart (orange dots, "surface runs only"), not red;
+    a band over the budget in a profile run stays red. The stated errors are set here so that each
+    kind is over in one band of its own."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from roadtex.report.data import OVER_BUDGET_LABEL, SURFACE_OVER_BUDGET_LABEL
+    from roadtex.report.spectra_figures import fig_pressure_spectra, fig_texture_spectra
+
+    results = load_results(mixed_results)
+    budget = results.options["error_budget_db"]
+    surfaces = set(results.surface_bands["run_id"])
+    bands = sorted(results.bands.filter(pl.col("pavement") == "dense_asphalt")["band"].unique()
+                   if "pavement" in results.bands.columns else results.bands["band"].unique())
+    surface_band, profile_band = bands[len(bands) // 2], bands[len(bands) // 2 + 1]
+    is_surface = pl.col("run_id").is_in(pl.Series(sorted(surfaces)).implode())
+    stated = (pl.when(is_surface & (pl.col("band") == surface_band)).then(5 * budget)
+              .when(~is_surface & (pl.col("band") == profile_band)).then(5 * budget)
+              .otherwise(budget / 10).alias("level_error_db"))
+    results.bands = results.bands.with_columns(stated)
+
+    fig = fig_texture_spectra(plt, results)
+    try:
+        panel = next(ax for ax in fig.axes if ax.get_title() == "dense_asphalt")
+        marked = {gid: {round(p.get_x() + p.get_width() / 2) for p in panel.patches if p.get_gid() == gid}
+                  for gid in ("over_budget", "over_budget_surfaces")}
+        assert marked == {"over_budget": {profile_band}, "over_budget_surfaces": {surface_band}}
+        entries = [t.get_text() for legend in fig.legends for t in legend.get_texts()]
+        assert entries.count(OVER_BUDGET_LABEL) == 1 and entries.count(SURFACE_OVER_BUDGET_LABEL) == 1
+        # the extruded pavement has no profile run: its surface's band is marked as a surface's
+        extruded = next(ax for ax in fig.axes if ax.get_title() == "extruded")
+        assert {p.get_gid() for p in extruded.patches if p.get_gid() and "over_budget" in p.get_gid()} \
+            == {"over_budget_surfaces"}
+    finally:
+        plt.close(fig)
+    fig = fig_pressure_spectra(plt, results)
+    try:
+        panel = next(ax for ax in fig.axes if ax.get_title() == "dense_asphalt")
+        assert sum(p.get_gid() == "over_budget" for p in panel.patches) == 1
+        assert sum(p.get_gid() == "over_budget_surfaces" for p in panel.patches) == 1
+    finally:
+        plt.close(fig)

@@ -56,16 +56,39 @@ def tolerance(value: float) -> str:
 #: The legend entry of the bands marked by :func:`mark_over_budget`.
 OVER_BUDGET_LABEL = "band whose stated error exceeds the budget"
 
+#: The legend entry of the bands marked by :func:`mark_over_budget` with ``surfaces=True``: over
+#: the budget in a pavement's surface runs only (its profile runs within it, or none).
+SURFACE_OVER_BUDGET_LABEL = "band over the budget in surface runs only"
 
-def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None) -> dict[str, set[int]]:
+#: Which runs :func:`over_budget_bands` looks at: every run, the profile (line) runs, or the
+#: surface (3D) runs.
+RUN_KINDS = ("all", "profiles", "surfaces")
+
+
+def surface_run_ids(results: "Results") -> set[str]:
+    """The runs of ``results`` that are surfaces (3D texture: they have areal rows)."""
+    if results.surface_bands is None:
+        return set()
+    return {str(r) for r in results.surface_bands["run_id"].unique().to_list()}
+
+
+def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None, runs: str = "all") -> dict[str, set[int]]:
     """Per group (:meth:`Results.run_groups`), the bands whose stated numerical error
-    (bands.parquet ``level_error_db``) exceeds the job's error budget in any of the group's runs:
-    their levels may be off by more than the budget, and every figure drawing them marks them.
-    Empty without a budget or without error estimates."""
+    (bands.parquet ``level_error_db``) exceeds the job's error budget in any of the group's runs
+    of kind ``runs`` (:data:`RUN_KINDS`: a pavement's profile runs and its surface runs are solved
+    on different grids and state their errors apart, so a figure marks them apart): their levels
+    may be off by more than the budget, and every figure drawing them marks them. Empty without a
+    budget or without error estimates."""
+    if runs not in RUN_KINDS:
+        raise ValueError(f"runs must be one of {RUN_KINDS}, got {runs!r}")
     budget = results.options.get("error_budget_db")
     table = results.bands if bands is None else bands
     if budget is None or "level_error_db" not in table.columns:
         return {}
+    if runs != "all":
+        surfaces = pl.Series(sorted(surface_run_ids(results)), dtype=pl.String).implode()
+        inside = pl.col("run_id").cast(pl.String).is_in(surfaces)
+        table = table.filter(inside if runs == "surfaces" else ~inside)
     over = (table.filter(pl.col("level_error_db") > budget).select("run_id", "band").unique()
             .join(results.run_groups(), on="run_id", how="left")
             .with_columns(pl.col("group").fill_null(pl.col("run_id"))))
@@ -75,12 +98,16 @@ def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None) -> 
     return marked
 
 
-def mark_over_budget(ax: Any, positions: list[float]) -> None:
+def mark_over_budget(ax: Any, positions: list[float], surfaces: bool = False) -> None:
     """Hatches the band positions ``positions`` (x, one unit wide) of ``ax``: levels whose stated
-    error exceeds the budget (labelled :data:`OVER_BUDGET_LABEL` once, for the legend)."""
+    error exceeds the budget (labelled :data:`OVER_BUDGET_LABEL` once, for the legend); with
+    ``surfaces``, bands over it in a pavement's surface runs only, marked apart (orange dots: the
+    grey back-hatch is the sampling-limited bands'; :data:`SURFACE_OVER_BUDGET_LABEL`)."""
+    colour, hatch, label, gid = (("#ff7f0e", "..", SURFACE_OVER_BUDGET_LABEL, "over_budget_surfaces") if surfaces
+                                 else ("#d62728", "///", OVER_BUDGET_LABEL, "over_budget"))
     for index, x in enumerate(sorted(positions)):
-        ax.axvspan(x - 0.5, x + 0.5, facecolor="none", edgecolor="#d62728", hatch="///", lw=0, alpha=0.5, zorder=0,
-                   label=OVER_BUDGET_LABEL if index == 0 else None, gid="over_budget")
+        ax.axvspan(x - 0.5, x + 0.5, facecolor="none", edgecolor=colour, hatch=hatch, lw=0, alpha=0.5, zorder=0,
+                   label=label if index == 0 else None, gid=gid)
 
 
 def power_mean_db(levels: pl.Expr) -> pl.Expr:

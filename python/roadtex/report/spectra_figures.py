@@ -54,6 +54,16 @@ def hatch_limited(ax, bands: set[int], position: dict[int, int]) -> None:
                    lw=0.0, zorder=0, label=LIMITED_LABEL, gid="sampling_limited")
 
 
+def budget_marks(results: Results) -> tuple[dict[str, set[int]], dict[str, set[int]]]:
+    """Per group, the bands over the budget in its profile runs, and those over it in its surface
+    runs only: a pavement's 1 mm surfaces state larger errors than its profiles, and marking the
+    whole pavement red for them made bands look unreliable whose profile levels are within budget."""
+    profiles = over_budget_bands(results, runs="profiles")
+    surfaces = {group: bands - profiles.get(group, set())
+                for group, bands in over_budget_bands(results, runs="surfaces").items()}
+    return profiles, {group: bands for group, bands in surfaces.items() if bands}
+
+
 def mean_spectra(results: Results, level: str) -> pl.DataFrame:
     group = "group"
     bands = results.bands.join(results.run_groups(), on="run_id", how="left")
@@ -70,7 +80,7 @@ def fig_texture_spectra(plt, results: Results):
     bands = results.bands.join(results.run_groups(), on="run_id", how="left")
     groups = bands["group"].unique(maintain_order=True).to_list()
     limited = sampling_limited(results)
-    over = over_budget_bands(results)
+    over, surface_only = budget_marks(results)
     fig, axes = plt.subplots(2, len(groups), figsize=(3.4 * len(groups) + 2.0, 6.2), squeeze=False, sharex=True,
                              layout="constrained")
     kind = results.options.get("band_kind", "third_octave")
@@ -83,6 +93,7 @@ def fig_texture_spectra(plt, results: Results):
         position = {b: b for b in bands["band"].unique().to_list()}   # roadtex.plot draws at the band number
         for ax in (top, bottom):   # the enveloped levels are the contact model's
             mark_over_budget(ax, sorted(over.get(str(name), ())))
+            mark_over_budget(ax, sorted(surface_only.get(str(name), ())), surfaces=True)
             hatch_limited(ax, limited.get(str(name), set()), position)
     legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
@@ -95,11 +106,12 @@ def fig_pressure_spectra(plt, results: Results):
     position = {b: i for i, b in enumerate(labels["band"])}
     groups = spectra[group].unique(maintain_order=True).to_list()
     limited = sampling_limited(results)
-    over = over_budget_bands(results)
+    over, surface_only = budget_marks(results)
     fig, axes = plt.subplots(1, len(groups), figsize=(3.4 * len(groups) + 2.0, 3.6), squeeze=False, sharey=True,
                              layout="constrained")
     for ax, name in zip(axes[0], groups):
         mark_over_budget(ax, [position[b] for b in over.get(str(name), ()) if b in position])
+        mark_over_budget(ax, [position[b] for b in surface_only.get(str(name), ()) if b in position], surfaces=True)
         for colour, e in zip(COLOURS, results.moduli):
             rows = spectra.filter((pl.col(group) == name) & (pl.col("youngs_modulus") == e))
             ax.plot([position[b] for b in rows["band"]], rows["pressure_level"], color=colour, lw=1.0,
@@ -159,13 +171,18 @@ def fig_pressure_vs_texture(plt, results: Results):
     for ax in axes.ravel()[len(band_list):]:
         ax.set_visible(False)
     # an octave holds the third octaves n-1, n, n+1: marked when one of them exceeds the budget in any run
-    over = set().union(*over_budget_bands(results).values())
+    profiles, surface_only = budget_marks(results)
+    over, over_surfaces = set().union(*profiles.values()), set().union(*surface_only.values())
     kind = results.options.get("band_kind", "third_octave")
     for ax, band in zip(axes.ravel(), band_list):
-        if over & ({band - 1, band, band + 1} if kind == "third_octave" else {band}):
+        parts = {band - 1, band, band + 1} if kind == "third_octave" else {band}
+        if over & parts:
             ax.patch.set_facecolor("#fde8e8")
             ax.text(0.02, 0.98, "stated error exceeds the budget", transform=ax.transAxes, va="top", fontsize=7,
                     color="#d62728", gid="over_budget")
+        elif over_surfaces & parts:
+            ax.text(0.02, 0.98, "over the budget in surface runs only", transform=ax.transAxes, va="top",
+                    fontsize=7, color="#ff7f0e", gid="over_budget_surfaces")
         for colour, e in zip(COLOURS, results.moduli):
             pts = octaves.filter((pl.col("band") == band) & (pl.col("youngs_modulus") == e))
             ax.scatter(pts["enveloped_level"], pts["pressure_level"], s=12, color=colour, label=modulus_label(e))
