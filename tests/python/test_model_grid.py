@@ -15,6 +15,7 @@ import pytest
 
 import roadtex
 from roadtex.archive import ProcessingOptions, process
+from roadtex.budget.study import cleaned_profiles, segments_of
 from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 
@@ -66,11 +67,12 @@ def levels(heights: np.ndarray, dx: float, tol: float) -> tuple[pl.DataFrame, np
 
 
 def actual_errors(profile: roadtex.Profile, choice: roadtex.BudgetChoice, length: float) -> dict[int, float]:
-    """Band -> worst |level - level at k = 32| over every segment, modulus and kind, at the choice."""
-    data = profile.conditioned(spike_alpha=None).segments(length)
-    truth_bands, truth = levels(linear_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
-    assert abs(choice.dx - data.dx) < 1e-9 * data.dx   # coarse data: the data's own interval
-    model_bands, model = levels(linear_road(data.heights, choice.refine), data.dx / choice.refine, choice.tol)
+    """Band -> worst |level - level at k = 32| over every segment with a level in the job (more than
+    MAX_MISSING_SHARE of its samples without a reading: none, as in the job), modulus and kind."""
+    heights, _, dx = segments_of(cleaned_profiles([profile], None), None, length)
+    truth_bands, truth = levels(linear_road(heights, TRUTH_REFINE), dx / TRUTH_REFINE, 1e-10)
+    assert abs(choice.dx - dx) < 1e-9 * dx   # coarse data: the data's own interval
+    model_bands, model = levels(linear_road(heights, choice.refine), dx / choice.refine, choice.tol)
     truth_index = {b: i for i, b in enumerate(truth_bands["band"].to_list())}
     return {b: float(np.max(np.abs(model[:, :, j] - truth[:, :, truth_index[b]])))
             for j, b in enumerate(model_bands["band"].to_list()) if b in choice.band_error_db
