@@ -19,7 +19,8 @@ of runs of the same device and pavement):
    :data:`MIN_SHRINK` (not converging) or a single halving (order unknown) gets factor 4, is
    flagged (the study's ``richardson`` column) and makes the reference refine further while it may.
    Spread to the whole run as in 4. The reference stops refining as soon as this error is within
-   :data:`REFERENCE_SHARE` of the budget: data already fine stop at K = 2 when k = 1 and 2 agree.
+   :data:`REFERENCE_SHARE` of the budget: data already fine stop at K = 2 when k = 1 and 2 agree
+   within a sixteenth of the budget (factor 4 on one halving).
 3. **Candidates**: the data's grid refined k times (k <= K), and, where the data are finer than
    the budget needs, the run resampled to coarser intervals (k = 1); the pilot segments solved at
    each candidate tol; the difference of every level from the reference's.
@@ -28,11 +29,11 @@ of runs of the same device and pavement):
 
    - texture (resampling only, no solve): measured on *every* segment of the run, exactly; 0 on
      the file's own interval (texture levels are the data's whatever the model grid);
-   - enveloped and pressure levels: from the pilot rows (segments x moduli), the larger of their
-     largest difference and the largest difference expected among all of the run's rows for
-     differences of the pilot rows' root mean square (Gaussian extreme value: rms x sqrt(2 ln n),
-     n the run's row count; each band pooled with its two neighbours), times SPREAD_FACTOR (2),
-     plus the reference's own error (step 2).
+   - enveloped and pressure levels: from the pilot rows (segments x moduli), per level kind and
+     band the larger of their largest difference and :data:`PILOT_SPREAD_FACTOR` (1.7) x (|mean| +
+     sqrt(2 ln n) x standard deviation) of the signed differences, n the run's row count
+     (:func:`run_extreme`; nothing extrapolated when the pilot's rows are the run's), plus the
+     reference's own error (step 2).
 
 5. **What the sampling cannot tell** (:func:`interpolant_spread`): the reference grid solved again
    on the monotone cubic road through the same readings; the largest difference of its converged
@@ -55,6 +56,23 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import poisson_ratio, positive, whole_number
+from roadtex.budget.estimate import (  # noqa: F401 - re-exported: the rule's names as study's
+    MAX_ORDER,
+    MEASURED,
+    MIN_SHRINK,
+    NOT_CONVERGING,
+    NOT_MEASURED,
+    PILOT_SPREAD_FACTOR,
+    REFERENCE_SHARE,
+    SPREAD_FACTOR,
+    TINY_DIFFERENCE_DB,
+    difference,
+    extreme,
+    reference_converged,
+    richardson,
+    run_extreme,
+    stated_errors,
+)
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
 from roadtex.budget.sizes import five_smooth_ladder
 from roadtex.errors import InvalidInputError, RoadtexWarning
@@ -80,9 +98,6 @@ DEFAULT_PILOT_SEGMENTS = 12
 #: Coarsest candidate sampling interval (m): the ISO 13473-1 MPD sampling.
 COARSEST_DX = 0.5e-3
 
-#: The reference grid stops refining once its own estimated error is at most this share of the budget.
-REFERENCE_SHARE = 0.25
-
 #: Largest reference grid, in points per segment (beyond it the reference stops refining, its own
 #: error stated as it stands); one refinement (k = 2) is always made, whatever the size.
 REFERENCE_MAX_POINTS = 2 ** 16
@@ -90,40 +105,9 @@ REFERENCE_MAX_POINTS = 2 ** 16
 #: Largest refinement of the reference grid.
 MAX_REFINE = 32
 
-#: Largest convergence order Richardson assumes from the k sequence (the safe side of the measured
-#: orders: 1.3 to 2.5 between successive halvings on CAPTIF averaged to 1 mm): factor >= 0.55.
-MAX_ORDER = 1.5
-
-#: Least shrink per halving (r = 2^p, p >= 0.32) the Richardson rule (:func:`richardson`) trusts;
-#: below it the sequence is flagged as not converging and the reference refines further.
-MIN_SHRINK = 1.25
-
-#: A halving's difference (dB) at or below this is the solver's noise at tol 1e-10, not a trend.
-TINY_DIFFERENCE_DB = 1e-3
-
-#: How the Richardson factor of a band was judged (the study's ``richardson`` column).
-MEASURED, NOT_MEASURED, NOT_CONVERGING = "order measured", "one halving: factor 4", "not converging: factor 4"
-
 #: Candidate refinements of the data's grid, cheapest first (5-smooth: FFT-friendly when N is). The
 #: surface pilot has its own, shorter one (roadtex.budget.areal.REFINE_LADDER: a surface costs k^2).
 REFINE_LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
-
-#: Safety factor on the pilot's extrapolation from its segments to the whole run. Level errors
-#: between segments are heavy-tailed (one segment may err 5 times more than the pilot's rms): on 8
-#: synthetic pavements x 10 settings x 6 bands (10 segments, 3 in the pilot) the pooled Gaussian
-#: extrapolation was exceeded by the true largest error in 29 % of the cases, by 1.5 times it in 11 %,
-#: by 2 times it in 4.6 % (95th percentile of the ratio 0.96, largest 2.5); see docs/guide/error-budget.md.
-SPREAD_FACTOR = 2.0
-
-#: Safety factor on the line pilot's extrapolation from its segments to the whole run
-#: (:func:`run_extreme`), with :data:`DEFAULT_PILOT_SEGMENTS` pilot segments: replayed on every
-#: segment of 4 synthetic pavements and CAPTIF averaged to 1 mm (40 and 10 segments, 4 moduli, k = 1
-#: to 16 against k = 32, benches/pilot_calibration.py), 1.7 states a median 1.9 times the actual
-#: error (1.7 to 2.0 per group); 6 of 585 (k, band) cases fell below it, 2 by more than 0.01 dB
-#: (0.09 dB at k = 1, over the budget anyway; 0.015 dB at k = 8 in the 40 mm band). The old rule
-#: (magnitudes, factor 2, 3 segments): median 2.7, 17 below, up to 0.28 dB. SPREAD_FACTOR stays
-#: the areal pilot's (:mod:`roadtex.budget.areal`).
-PILOT_SPREAD_FACTOR = 1.7
 
 #: Ratio between neighbouring candidate point counts.
 LADDER_RATIO = 1.2
@@ -271,13 +255,6 @@ def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refin
     return levels, ok, seconds, solver_work(batch.iterations, model.shape[1])
 
 
-def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """|a - b| in dB, 0 where both are -inf (bands without power), inf where only one is."""
-    with np.errstate(invalid="ignore"):
-        d = np.abs(a - b)
-    return np.where(np.isneginf(a) & np.isneginf(b), 0.0, np.where(np.isnan(d), np.inf, d))
-
-
 def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
                 mean_pressure: float, poisson: float, segment_length: float, n_segments: int,
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
@@ -341,66 +318,6 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     return pilot
 
 
-def richardson(differences: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The finest grid's own error (2, bands) from the differences of its k sequence, and how it was
-    judged (2, bands: :data:`MEASURED`, :data:`NOT_MEASURED` or :data:`NOT_CONVERGING`): the line
-    pilot's one safety rule (docs/guide/error-budget.md, "The Richardson rule").
-
-    Per level kind and band, with ``last`` = |L(K) - L(K / 2)| and ``before`` = |L(K / 2) - L(K / 4)|
-    (each already spread to the run's rows, :func:`extreme`): an error ~ C h^p shrinks
-    r = 2^p times per halving and the finest grid's own error is last / (r - 1) (Richardson). r is
-    measured per band as before / last and capped at 2^:data:`MAX_ORDER` (a faster shrink is not
-    trusted); an order below 1 keeps the larger factor it needs (p = 0.5: 2.4), never clamped up.
-    A shrink below :data:`MIN_SHRINK` (or one halving only, order unknown) gets the largest factor
-    the rule allows, 1 / (MIN_SHRINK - 1) = 4, and is flagged (the pilot then refines further while
-    it may: :func:`reference_converged`); a last difference at most :data:`TINY_DIFFERENCE_DB` is
-    the solver's noise, not a trend, and is not flagged.
-    """
-    last = differences[-1]
-    factor = np.full(last.shape, 1.0 / (MIN_SHRINK - 1.0))
-    notes = np.full(last.shape, NOT_MEASURED)
-    if len(differences) >= 2:
-        before = differences[-2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            shrink = np.where(last > 0.0, before / last, np.inf)
-        shrink = np.nan_to_num(shrink, nan=0.0, posinf=np.inf)
-        measured = shrink >= MIN_SHRINK
-        factor = np.where(measured, 1.0 / (np.clip(shrink, MIN_SHRINK, 2.0 ** MAX_ORDER) - 1.0), factor)
-        notes = np.where(measured, MEASURED, NOT_CONVERGING)
-    notes = np.where(last <= TINY_DIFFERENCE_DB, MEASURED, notes)   # below the solver's noise: nothing to judge
-    return factor * last, notes
-
-
-def reference_converged(differences: list[np.ndarray], budget_rows: np.ndarray, budget: float) -> bool:
-    """Whether the finest grid's own error (:func:`richardson`) is within :data:`REFERENCE_SHARE` of
-    the budget in every budget band (every band when none is one)."""
-    error, _ = richardson(differences)
-    judged = error[:, budget_rows] if budget_rows.any() else error
-    return bool(np.all(np.nan_to_num(judged, nan=0.0) <= REFERENCE_SHARE * budget))
-
-
-def stated_errors(sequence: dict[int, np.ndarray], candidates: Sequence[int], budget_rows: np.ndarray,
-                  run_rows: int, budget: float = DEFAULT_ERROR_BUDGET_DB,
-                  max_points: float = np.inf, spread_factor: float = PILOT_SPREAD_FACTOR,
-                  ) -> tuple[dict[int, np.ndarray], np.ndarray, np.ndarray]:
-    """The pilot's rule replayed on levels already solved (benches/pilot_calibration.py and the tests):
-    ``sequence`` k -> levels (2, pilot rows, bands) at the reference tol on k = 1, 2, 4, ... and on the
-    ``candidates``. Returns k -> stated error (bands; worst of the two kinds) for the candidates up to
-    the reference's K, the reference's own error (2, bands) and its notes (2, bands)."""
-    differences: list[np.ndarray] = []
-    k = 1
-    while 2 * k in sequence and 2 * k * sequence[1].shape[-1] <= max_points:
-        differences.append(run_extreme(sequence[2 * k], sequence[k], run_rows))
-        k *= 2
-        if reference_converged(differences, budget_rows, budget):
-            break
-    error, notes = richardson(differences) if differences else (np.zeros(sequence[1][:, 0].shape), np.full(
-        sequence[1][:, 0].shape, MEASURED))
-    stated = {c: (run_extreme(sequence[c], sequence[k], run_rows, spread_factor) + error).max(axis=0)
-              for c in candidates if c <= k}
-    return stated, error, notes
-
-
 #: The roads through the readings whose converged levels the spread compares with the linear
 #: road's: the shape-preserving ones. The band-limited road is measured (benches/model_grid.py) but
 #: left out: it rings at sharp stone tops, adding up to 10 dB at 0.5 mm in the short bands, while real
@@ -409,59 +326,27 @@ def stated_errors(sequence: dict[int, np.ndarray], candidates: Sequence[int], bu
 SPREAD_INTERPOLANTS: tuple[str, ...] = ("pchip",)
 
 
+#: Largest model grid (points a segment) the interpolants' spread is solved on (issue 39): below
+#: the reference's where the data are fine. The spread is the difference of two roads on one grid
+#: (0.1 to 3 dB), whose grid errors largely cancel: on CAPTIF at 0.0375 mm (13,337 points a segment)
+#: it is taken at k = 2 instead of the reference's k = 4 (the pchip solve was 15 of the pilot's 59 s).
+SPREAD_MAX_POINTS = 2 ** 15
+
+
 def interpolant_spread(pilot: Pilot, heights: np.ndarray) -> np.ndarray:
     """The largest difference (dB, per band) between the converged enveloped and pressure levels of
     the linear road and those of the monotone cubic road through the same readings
-    (:data:`SPREAD_INTERPOLANTS`), on the reference grid, spread to the run's rows as the errors
-    are: what the data's sampling cannot tell about the road between its readings."""
+    (:data:`SPREAD_INTERPOLANTS`), on the finest grid of the reference's sequence within
+    :data:`SPREAD_MAX_POINTS` (the reference's own where it fits), spread to the run's rows as the
+    errors are: what the data's sampling cannot tell about the road between its readings."""
+    fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
+    k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
+    linear = pilot.sequence[k][0]
     spread = np.zeros(pilot.bands.height)
     for interpolant in SPREAD_INTERPOLANTS:
-        levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, pilot.refine, interpolant)  # type: ignore[arg-type]
-        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, pilot.levels), 1, 0), pilot.run_rows).max(axis=0))
+        levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, k, interpolant)  # type: ignore[arg-type]
+        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, linear), 1, 0), pilot.run_rows).max(axis=0))
     return spread
-
-
-def run_extreme(levels: np.ndarray, reference: np.ndarray, run_rows: int, factor: float = 1.0) -> np.ndarray:
-    """Estimate (2, bands) of the largest |levels - reference| among ``run_rows`` rows from the pilot's
-    rows (levels and reference: (2, pilot rows, bands), dB): per level kind and band, the larger of
-    the pilot's largest difference and ``factor`` x (|mean| + sqrt(2 ln run_rows) x standard
-    deviation) of the signed differences. A grid's level errors are mostly a bias shared by the
-    segments (a coarse grid flattens every contact spot alike) plus a scatter: the Gaussian
-    extreme of the scatter added to the bias, not of the magnitudes (which counted the bias
-    sqrt(2 ln n) = 3 to 4.5 times). When the pilot's rows are the run's (a run of at most
-    :data:`DEFAULT_PILOT_SEGMENTS` segments) nothing is extrapolated: the largest difference is the
-    run's. Inf where only one of the two is -inf (a band without power at one setting), 0 where
-    both are.
-    """
-    with np.errstate(invalid="ignore"):
-        signed = np.where(np.isneginf(levels) & np.isneginf(reference), 0.0, levels - reference)
-    signed = np.where(np.isnan(signed), np.inf, signed)
-    largest = np.abs(signed).max(axis=1)
-    if signed.shape[1] >= run_rows:
-        return largest
-    with np.errstate(invalid="ignore"):
-        gaussian = np.abs(signed.mean(axis=1)) + np.sqrt(2.0 * np.log(max(run_rows, 2))) * signed.std(axis=1)
-    return np.fmax(largest, factor * np.nan_to_num(gaussian, nan=np.inf))
-
-
-def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
-    """Estimate of the largest of ``run_rows`` differences per band from a sample (rows, ..., bands).
-
-    Per band, the sample is pooled with its two neighbouring bands (errors vary smoothly with the
-    wavelength, single bands of a few rows do not), then the larger of its largest value and the
-    Gaussian expectation of the largest of ``run_rows``: rms x sqrt(2 ln run_rows).
-    """
-    padded = np.concatenate([differences[..., :1], differences, differences[..., -1:]], axis=-1)
-    pooled = np.concatenate([padded[..., :-2], padded[..., 1:-1], padded[..., 2:]], axis=0)
-    # NaN marks bands not reported at a candidate: skipped (counted out by hand: numpy's
-    # nan-functions warn on NaN-only slices, and a warnings filter is process-wide, which the job's
-    # run threads must not touch)
-    valid = ~np.isnan(pooled)
-    count = valid.sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rms = np.sqrt((np.where(valid, pooled, 0.0) ** 2).sum(axis=0) / count)   # NaN where count is 0
-    largest = np.where(count > 0, np.where(valid, pooled, -np.inf).max(axis=0), np.nan)
-    return np.fmax(largest, rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
 
 
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
