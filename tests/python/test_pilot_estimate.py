@@ -1,5 +1,6 @@
-"""The line pilot's error estimate (issue 39): one Richardson rule, the stated error never below the
-actual one against k = 32, the smallest k within the budget where the pilot sees the whole run.
+"""The line pilot's error estimate and size (issue 39): one Richardson rule, the stated error never
+below the actual one against k = 32, the smallest k within the budget where the pilot sees the whole
+run, no solves beyond the reference's own grid on data already fine.
 
 The actual errors are measured here independently of the package's refinement: every segment of the
 run joined by straight lines with numpy's ``interp`` and solved on k = 32 at tol 1e-10.
@@ -13,6 +14,8 @@ import numpy as np
 import pytest
 
 import roadtex
+import roadtex.budget.pilot as pilot_module
+from roadtex.budget import study
 from roadtex.budget.study import (
     MAX_ORDER,
     MEASURED,
@@ -20,6 +23,8 @@ from roadtex.budget.study import (
     NOT_CONVERGING,
     NOT_MEASURED,
     REFINE_LADDER,
+    SPREAD_MAX_POINTS,
+    reference_converged,
     richardson,
 )
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -106,3 +111,35 @@ def test_the_chosen_k_is_the_smallest_within_the_budget() -> None:
     coarser = max(k for k in REFINE_LADDER if k < choice.refine)
     actual = worst_actual(choice, truth, heights, dx, coarser)
     assert max(actual[b] for b in choice.budget_bands) > choice.budget_db, (coarser, choice.refine)
+
+
+def test_one_halving_needs_a_sixteenth_of_the_budget() -> None:
+    # one halving shows no order: factor 4, so k = 1 and 2 must agree within a sixteenth of the
+    # budget for the reference to stop at K = 2 (the old rule stopped at a quarter: factor 1)
+    budget_rows = np.ones(3, bool)
+    assert not reference_converged([np.full((2, 3), 0.04)], budget_rows, 0.2)
+    assert reference_converged([np.full((2, 3), 0.012)], budget_rows, 0.2)
+    # a sequence that stopped shrinking is not converged either, however small its last step
+    assert not reference_converged([np.full((2, 3), 0.05), np.full((2, 3), 0.045)], budget_rows, 0.2)
+
+
+def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 0.025 mm: 20,000 points a 0.5 m segment; the reference refines at least once (40,000 points),
+    # the interpolants' spread and the tol effect stay within SPREAD_MAX_POINTS
+    profile = roadtex.synthetic_pavement("dense_asphalt", 1.0, 0.025e-3, seed=2)
+    solved: list[tuple[str, str, float, int]] = []
+
+    def counting(where: str, original):
+        def solve(pilot, heights, dx, tol, refine=1, interpolant="linear"):
+            solved.append((where, interpolant, tol, heights.shape[1] * refine))
+            return original(pilot, heights, dx, tol, refine, interpolant)
+        return solve
+
+    monkeypatch.setattr(study, "solve_levels", counting("study", study.solve_levels))
+    monkeypatch.setattr(pilot_module, "solve_levels", counting("pilot", pilot_module.solve_levels))
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
+    assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
+    spread = [n for where, interpolant, _, n in solved if interpolant == "pchip"]
+    tolerance = [n for where, _, tol, n in solved if where == "pilot"]
+    assert spread and max(spread) <= SPREAD_MAX_POINTS
+    assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
