@@ -155,11 +155,11 @@ def test_synthetic_choice_meets_the_budget_and_states_its_error(kind: str, budge
 
 
 def test_an_unreachable_budget_runs_near_the_floor_and_says_so(asphalt: roadtex.Profile) -> None:
-    # on its own 0.02 mm grid (no finer model grid allowed) this profile's levels are ~0.02 dB from
-    # the converged answer: a budget of 0.01 dB is out of reach
+    # on its own 0.02 mm grid (no finer model grid allowed) this profile's levels are up to 0.006 dB
+    # from the converged answer (k = 16; issue 39's estimate states 0.0062): 0.002 dB is out of reach
     choice = roadtex.choose_setting(asphalt, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=0.1,
-                                    budget_db=0.01, refine_candidates=[1])
-    assert not choice.within_budget and choice.worst_error_db > 0.01 and choice.refine == 1
+                                    budget_db=0.002, refine_candidates=[1])
+    assert not choice.within_budget and choice.worst_error_db > 0.002 and choice.refine == 1
     # the cheapest setting within 5 % (and 0.01 dB) of the smallest error evaluated, not the dearest
     worst = (choice.study.filter(pl.col("in_budget") & (pl.col("refine") == 1))
              .group_by("dx", "refine", "tol").agg(pl.col("level_error_db").max()))

@@ -171,6 +171,7 @@ PILOT_COLUMNS: Columns = {
     "pressure_error_db": (pl.Float64(), "dB"),
     "level_error_db": (pl.Float64(), "dB"),
     "pilot_segments": (pl.Int64(), "count"),
+    "richardson": (pl.String(), None),            # how the reference's own error was judged (one halving / not converging: factor 4)
 }
 ERROR_COLUMNS: Columns = {
     "run_id": (pl.String(), None),

@@ -25,14 +25,20 @@ from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB
 from roadtex.budget.study import (
     DEFAULT_PILOT_SEGMENTS,
     DEFAULT_TOLERANCES,
+    PILOT_SPREAD_FACTOR,
     REFERENCE_TOL,
     REFINE_LADDER,
+    SPREAD_MAX_POINTS,
     Pilot,
     as_frame,
     build_pilot,
     candidate_rows,
     check_candidates,
     default_settings,
+    match,
+    run_extreme,
+    segments_of,
+    solve_levels,
 )
 from roadtex.models.grid import check_refine
 from roadtex.profiles.profile import Profile
@@ -110,21 +116,26 @@ def setting_summary(rows: list[dict]) -> dict[Setting, tuple[float, float, float
     return out
 
 
-def tolerance_effect(rows: list[dict], pilot: Pilot) -> float:
-    """How much tightening the loosest tol can lower an estimate (dB), judged on the finest grid.
+def tolerance_effect(pilot: Pilot, tol: float) -> tuple[float, float]:
+    """How much tightening the loosest tol can lower an estimate (dB), and the finest model interval
+    (m) that bound holds for.
 
-    On the reference's grid (file dx, k = K) an estimate at the loosest tol is (tol error) +
-    (reference error), so the tol error there is known. The solver's criterion is a gap relative to the profile's
-    peak-to-valley height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the
-    level errors shrink as dx grows, so the tol error at the finest dx bounds the gain at every
-    coarser one (doubled for safety). With no finest-dx row every dx gets the tighter tolerances.
+    The tol error is measured on the pilot segments at the file's dx on the finest grid of the
+    reference's sequence within :data:`~roadtex.budget.study.SPREAD_MAX_POINTS` (the reference's
+    own where it fits; issue 39: on CAPTIF at 0.0375 mm k = 2, not 4), against the same grid at tol
+    1e-10. The solver's criterion is a gap relative to the profile's peak-to-valley height, and a
+    gap error moves a pressure by about E* gap / dx: at a fixed tol the level errors shrink as the
+    model interval grows, so the tol error there bounds the gain on every coarser model grid
+    (doubled for safety); finer ones get the tighter tolerances tried (bound inf).
     """
-    bands = pilot.bands["band"].to_list()
-    gains = [max(r["enveloped_error_db"] - pilot.reference_error[0, bands.index(r["band"])],
-                 r["pressure_error_db"] - pilot.reference_error[1, bands.index(r["band"])])
-             for r in rows if abs(r["dx"] - pilot.dx) <= 1e-9 * pilot.dx and r["refine"] == pilot.refine
-             and r["in_budget"]]
-    return 2.0 * max(gains) + 1e-3 if gains else float(np.inf)
+    heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
+    heights = heights[match(pilot.starts, pilot.pilot)]
+    fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
+    k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
+    levels, ok, _, _ = solve_levels(pilot, heights, pilot.dx, tol, k)
+    budget = pilot.bands["in_budget"].to_numpy() & ok
+    gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
+    return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.dx / k
 
 
 def dxs_used(rows: list[dict], dx: float) -> float:
@@ -195,10 +206,9 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                   reverse=True)
 
     rows: list[dict] = []
-    slack = 0.0
-    if len(tols) > 1:  # the tol error at the finest dx bounds what tighter tolerances can gain
-        rows.extend(candidate_rows(pilot, pilot.dx, tols[:1], pilot.refine))
-        slack = tolerance_effect(rows, pilot)
+    slack, finest_bounded = 0.0, 0.0
+    if len(tols) > 1:  # the tol error on a fine grid bounds what tighter tolerances can gain
+        slack, finest_bounded = tolerance_effect(pilot, tols[0])
 
     def evaluate(setting: tuple[float, int]) -> bool:
         """Study rows at ``setting`` (dx, k), loosest tol first, tighter ones only while they can
@@ -212,7 +222,8 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
             worst = max((r["level_error_db"] for r in new if r["in_budget"]), default=0.0)
             if worst <= budget:
                 return True
-            if worst > budget + slack:  # beyond what a tighter tol can gain
+            gain = slack if dx / k >= finest_bounded * (1 - 1e-9) else np.inf
+            if worst > budget + gain:  # beyond what a tighter tol can gain
                 return False
         return False
 

@@ -8,14 +8,19 @@ of runs of the same device and pavement):
 
 1. **Reference**: the run conditioned at the file's own dx, cut into segments; a few *pilot*
    segments, spread evenly along the run, are solved at the reference tolerance (1e-10) on model
-   grids k = 1, 2, 4, ... times finer than the data, until the levels have converged to a
+   grids k = 1, 2, 4, ... times finer than the data, until its own error (step 2) is within a
    quarter of the budget (:data:`REFERENCE_SHARE`) or the grid reaches
    :data:`REFERENCE_MAX_POINTS` points per segment (:data:`MAX_REFINE` at most). The finest, k =
    K, is the reference: the converged answer *for the road the samples describe*.
-2. **Reference's own error** (Richardson over the k sequence): with an error ~ C (dx / k)^p, the
-   reference's error is |L(K) - L(K / 2)| / (2^p - 1), p estimated from the last three grids
-   (pooled over the budget bands, clamped to [1, :data:`MAX_ORDER`]: the safe side), 1 when only
-   two grids were solved; spread to the whole run as in 4.
+2. **Reference's own error** (Richardson over the k sequence, :func:`richardson`): with an error
+   ~ C (dx / k)^p, per level kind and band, the reference's error is |L(K) - L(K / 2)| / (r - 1)
+   for the shrink r = 2^p of the last two halvings measured in that band (capped at
+   2^:data:`MAX_ORDER`; an order below 1 keeps its larger factor). A shrink below
+   :data:`MIN_SHRINK` (not converging) or a single halving (order unknown) gets factor 4, is
+   flagged (the study's ``richardson`` column) and makes the reference refine further while it may.
+   Spread to the whole run as in 4. The reference stops refining as soon as this error is within
+   :data:`REFERENCE_SHARE` of the budget: data already fine stop at K = 2 when k = 1 and 2 agree
+   within a sixteenth of the budget (factor 4 on one halving).
 3. **Candidates**: the data's grid refined k times (k <= K), and, where the data are finer than
    the budget needs, the run resampled to coarser intervals (k = 1); the pilot segments solved at
    each candidate tol; the difference of every level from the reference's.
@@ -24,11 +29,11 @@ of runs of the same device and pavement):
 
    - texture (resampling only, no solve): measured on *every* segment of the run, exactly; 0 on
      the file's own interval (texture levels are the data's whatever the model grid);
-   - enveloped and pressure levels: from the pilot rows (segments x moduli), the larger of their
-     largest difference and the largest difference expected among all of the run's rows for
-     differences of the pilot rows' root mean square (Gaussian extreme value: rms x sqrt(2 ln n),
-     n the run's row count; each band pooled with its two neighbours), times SPREAD_FACTOR (2),
-     plus the reference's own error (step 2).
+   - enveloped and pressure levels: from the pilot rows (segments x moduli), per level kind and
+     band the larger of their largest difference and :data:`PILOT_SPREAD_FACTOR` (1.7) x (|mean| +
+     sqrt(2 ln n) x standard deviation) of the signed differences, n the run's row count
+     (:func:`run_extreme`; nothing extrapolated when the pilot's rows are the run's), plus the
+     reference's own error (step 2).
 
 5. **What the sampling cannot tell** (:func:`interpolant_spread`): the reference grid solved again
    on the monotone cubic road through the same readings; the largest difference of its converged
@@ -51,6 +56,23 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import poisson_ratio, positive, whole_number
+from roadtex.budget.estimate import (  # noqa: F401 - re-exported: the rule's names as study's
+    MAX_ORDER,
+    MEASURED,
+    MIN_SHRINK,
+    NOT_CONVERGING,
+    NOT_MEASURED,
+    PILOT_SPREAD_FACTOR,
+    REFERENCE_SHARE,
+    SPREAD_FACTOR,
+    TINY_DIFFERENCE_DB,
+    difference,
+    extreme,
+    reference_converged,
+    richardson,
+    run_extreme,
+    stated_errors,
+)
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
 from roadtex.budget.sizes import five_smooth_ladder
 from roadtex.errors import InvalidInputError, RoadtexWarning
@@ -68,14 +90,13 @@ REFERENCE_TOL = 1e-10
 #: Candidate solver tolerances, loosest first.
 DEFAULT_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10)
 
-#: Pilot segments per run (or per group of runs), spread evenly along it.
-DEFAULT_PILOT_SEGMENTS = 3
+#: Pilot segments per run (or per group of runs), spread evenly along it: 12, measured (see
+#: :data:`PILOT_SPREAD_FACTOR`): with 3, 6 and 8 segments the same rule fell short of the actual
+#: error by up to 0.56, 0.25 and 0.22 dB (cement concrete, porous asphalt), with 12 by 0.09 dB at most.
+DEFAULT_PILOT_SEGMENTS = 12
 
 #: Coarsest candidate sampling interval (m): the ISO 13473-1 MPD sampling.
 COARSEST_DX = 0.5e-3
-
-#: The reference grid stops refining once its own estimated error is at most this share of the budget.
-REFERENCE_SHARE = 0.25
 
 #: Largest reference grid, in points per segment (beyond it the reference stops refining, its own
 #: error stated as it stands); one refinement (k = 2) is always made, whatever the size.
@@ -84,20 +105,9 @@ REFERENCE_MAX_POINTS = 2 ** 16
 #: Largest refinement of the reference grid.
 MAX_REFINE = 32
 
-#: Largest convergence order Richardson assumes from the k sequence (the safe side of the measured
-#: orders: 1.3 to 2.5 between successive halvings on CAPTIF averaged to 1 mm).
-MAX_ORDER = 1.5
-
 #: Candidate refinements of the data's grid, cheapest first (5-smooth: FFT-friendly when N is). The
 #: surface pilot has its own, shorter one (roadtex.budget.areal.REFINE_LADDER: a surface costs k^2).
 REFINE_LADDER = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
-
-#: Safety factor on the pilot's extrapolation from its segments to the whole run. Level errors
-#: between segments are heavy-tailed (one segment may err 5 times more than the pilot's rms): on 8
-#: synthetic pavements x 10 settings x 6 bands (10 segments, 3 in the pilot) the pooled Gaussian
-#: extrapolation was exceeded by the true largest error in 29 % of the cases, by 1.5 times it in 11 %,
-#: by 2 times it in 4.6 % (95th percentile of the ratio 0.96, largest 2.5); see docs/guide/error-budget.md.
-SPREAD_FACTOR = 2.0
 
 #: Ratio between neighbouring candidate point counts.
 LADDER_RATIO = 1.2
@@ -110,6 +120,7 @@ STUDY_SCHEMA = {
     "label": pl.String, "centre_wavelength": pl.Float64, "in_budget": pl.Boolean,
     "seconds_per_metre": pl.Float64, "work_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
     "pressure_error_db": pl.Float64, "level_error_db": pl.Float64, "pilot_segments": pl.Int64,
+    "richardson": pl.String,
 }
 
 
@@ -137,7 +148,7 @@ class Pilot:
     seconds_per_metre: float
     work_per_metre: float
     refine: int = 1                  # K: the reference's model grid is dx / K
-    order: float = 1.0               # the convergence order Richardson used
+    richardson: np.ndarray | None = None   # (2, bands) how each reference error was judged (richardson())
     # k -> (levels, seconds per metre, work per metre) of the pilot segments at tol 1e-10 on each grid solved
     sequence: dict[int, tuple[np.ndarray, float, float]] = dataclasses.field(default_factory=dict)
     interpolant_spread: np.ndarray | None = None   # (bands,) what the sampling cannot tell (dB)
@@ -245,13 +256,6 @@ def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refin
     return levels, ok, seconds, solver_work(batch.iterations, model.shape[1])
 
 
-def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """|a - b| in dB, 0 where both are -inf (bands without power), inf where only one is."""
-    with np.errstate(invalid="ignore"):
-        d = np.abs(a - b)
-    return np.where(np.isneginf(a) & np.isneginf(b), 0.0, np.where(np.isnan(d), np.inf, d))
-
-
 def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
                 mean_pressure: float, poisson: float, segment_length: float, n_segments: int,
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
@@ -303,10 +307,9 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
         if k > 1 and heights.shape[1] * 2 * k > REFERENCE_MAX_POINTS:
             break
         finer = solve(2 * k)
-        differences.append(extreme(np.moveaxis(difference(finer, finest), 1, 0), pilot.run_rows))
+        differences.append(run_extreme(finer, finest, pilot.run_rows))
         finest, k = finer, 2 * k
-        converged = differences[-1][:, budget_rows] if budget_rows.any() else differences[-1]
-        if np.all(np.nan_to_num(converged, nan=0.0) <= REFERENCE_SHARE * budget):
+        if reference_converged(differences, budget_rows, budget):
             break
     pilot.refine = k
     pilot.levels = finest
@@ -314,28 +317,10 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     if not differences:
         pilot.reference_error = np.zeros(pilot.levels[:, 0].shape)
         return pilot
-    pilot.order = convergence_order(differences, budget_rows)
-    pilot.reference_error = differences[-1] / (2.0 ** pilot.order - 1.0)
+    pilot.reference_error, pilot.richardson = richardson(differences)
     if interpolants:
         pilot.interpolant_spread = interpolant_spread(pilot, pilot_heights)
     return pilot
-
-
-def convergence_order(differences: list[np.ndarray], budget_rows: np.ndarray) -> float:
-    """Richardson's order p from the last two halvings' differences (2, bands), pooled (rms) over
-    the budget bands, clamped to [1, MAX_ORDER]; 1 with one halving or no convergence to see."""
-    if len(differences) < 2:
-        return 1.0
-    rows = budget_rows if budget_rows.any() else np.ones(budget_rows.shape, bool)
-
-    def rms(values: np.ndarray) -> float:
-        finite = values[:, rows][np.isfinite(values[:, rows])]
-        return float(np.sqrt(np.mean(finite ** 2))) if finite.size else float("nan")
-
-    before, last = rms(differences[-2]), rms(differences[-1])
-    if not (np.isfinite(before) and np.isfinite(last)) or last <= 0.0 or before <= last:
-        return 1.0
-    return float(np.clip(np.log2(before / last), 1.0, MAX_ORDER))
 
 
 #: The roads through the readings whose converged levels the spread compares with the linear
@@ -346,36 +331,27 @@ def convergence_order(differences: list[np.ndarray], budget_rows: np.ndarray) ->
 SPREAD_INTERPOLANTS: tuple[str, ...] = ("pchip",)
 
 
+#: Largest model grid (points a segment) the interpolants' spread is solved on (issue 39): below
+#: the reference's where the data are fine. The spread is the difference of two roads on one grid
+#: (0.1 to 3 dB), whose grid errors largely cancel: on CAPTIF at 0.0375 mm (13,337 points a segment)
+#: it is taken at k = 2 instead of the reference's k = 4 (the pchip solve was 15 of the pilot's 59 s).
+SPREAD_MAX_POINTS = 2 ** 15
+
+
 def interpolant_spread(pilot: Pilot, heights: np.ndarray) -> np.ndarray:
     """The largest difference (dB, per band) between the converged enveloped and pressure levels of
     the linear road and those of the monotone cubic road through the same readings
-    (:data:`SPREAD_INTERPOLANTS`), on the reference grid, spread to the run's rows as the errors
-    are: what the data's sampling cannot tell about the road between its readings."""
+    (:data:`SPREAD_INTERPOLANTS`), on the finest grid of the reference's sequence within
+    :data:`SPREAD_MAX_POINTS` (the reference's own where it fits), spread to the run's rows as the
+    errors are: what the data's sampling cannot tell about the road between its readings."""
+    fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
+    k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
+    linear = pilot.sequence[k][0]
     spread = np.zeros(pilot.bands.height)
     for interpolant in SPREAD_INTERPOLANTS:
-        levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, pilot.refine, interpolant)  # type: ignore[arg-type]
-        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, pilot.levels), 1, 0), pilot.run_rows).max(axis=0))
+        levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, k, interpolant)  # type: ignore[arg-type]
+        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, linear), 1, 0), pilot.run_rows).max(axis=0))
     return spread
-
-
-def extreme(differences: np.ndarray, run_rows: int) -> np.ndarray:
-    """Estimate of the largest of ``run_rows`` differences per band from a sample (rows, ..., bands).
-
-    Per band, the sample is pooled with its two neighbouring bands (errors vary smoothly with the
-    wavelength, single bands of a few rows do not), then the larger of its largest value and the
-    Gaussian expectation of the largest of ``run_rows``: rms x sqrt(2 ln run_rows).
-    """
-    padded = np.concatenate([differences[..., :1], differences, differences[..., -1:]], axis=-1)
-    pooled = np.concatenate([padded[..., :-2], padded[..., 1:-1], padded[..., 2:]], axis=0)
-    # NaN marks bands not reported at a candidate: skipped (counted out by hand: numpy's
-    # nan-functions warn on NaN-only slices, and a warnings filter is process-wide, which the job's
-    # run threads must not touch)
-    valid = ~np.isnan(pooled)
-    count = valid.sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rms = np.sqrt((np.where(valid, pooled, 0.0) ** 2).sum(axis=0) / count)   # NaN where count is 0
-    largest = np.where(count > 0, np.where(valid, pooled, -np.inf).max(axis=0), np.nan)
-    return np.fmax(largest, rms * np.sqrt(2.0 * np.log(max(run_rows, 2))))
 
 
 def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int]:
@@ -386,6 +362,15 @@ def texture_errors(pilot: Pilot, dx: float) -> tuple[np.ndarray, np.ndarray, int
     rows = match(starts, pilot.starts)
     error = difference(levels.levels[rows][:, columns], pilot.texture).max(axis=0)
     return np.where(ok, error, np.inf), heights[match(starts, pilot.pilot)], heights.shape[1]
+
+
+def richardson_note(pilot: Pilot, band: int) -> str:
+    """How the reference's own error of column ``band`` was judged (:func:`richardson`): a flag
+    (one halving, not converging) of either level kind wins; "not refined" without a reference error."""
+    if pilot.richardson is None:
+        return "not refined"
+    notes = set(pilot.richardson[:, band].tolist())
+    return next((n for n in (NOT_CONVERGING, NOT_MEASURED) if n in notes), MEASURED)
 
 
 def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int = 1) -> list[dict]:
@@ -410,8 +395,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
         else:
             solved, ok, seconds, work = solve_levels(pilot, heights, used, tol, refine)
             seconds_per_metre, work_per_metre = seconds / metres, work / metres
-        measured = np.where(ok, difference(solved, pilot.levels), np.nan)  # NaN: not reported at dx
-        errors = SPREAD_FACTOR * extreme(np.moveaxis(measured, 1, 0), pilot.run_rows) + pilot.reference_error
+        errors = run_extreme(solved, pilot.levels, pilot.run_rows, PILOT_SPREAD_FACTOR) + pilot.reference_error
         errors = np.where(ok, errors, np.inf)
         for j, band in enumerate(pilot.bands.iter_rows(named=True)):
             row = {
@@ -422,6 +406,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
                 "work_per_metre": work_per_metre,
                 "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
                 "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
+                "richardson": richardson_note(pilot, j),
             }
             row["level_error_db"] = max(row["texture_error_db"], row["enveloped_error_db"], row["pressure_error_db"])
             rows.append(row)

@@ -1,0 +1,145 @@
+"""The line pilot's error estimate and size (issue 39): one Richardson rule, the stated error never
+below the actual one against k = 32, the smallest k within the budget where the pilot sees the whole
+run, no solves beyond the reference's own grid on data already fine.
+
+The actual errors are measured here independently of the package's refinement: every segment of the
+run joined by straight lines with numpy's ``interp`` and solved on k = 32 at tol 1e-10.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+import roadtex
+import roadtex.budget.pilot as pilot_module
+from roadtex.budget import study
+from roadtex.budget.study import (
+    MAX_ORDER,
+    MEASURED,
+    MIN_SHRINK,
+    NOT_CONVERGING,
+    NOT_MEASURED,
+    REFINE_LADDER,
+    SPREAD_MAX_POINTS,
+    reference_converged,
+    richardson,
+)
+from roadtex.spectra.bands import REFERENCE_PRESSURE
+
+TRUTH_REFINE = 32
+MODULI = np.array([2e6, 1e7])
+SEGMENT = 0.5
+
+
+def test_richardson_keeps_the_factor_a_low_order_needs() -> None:
+    last = np.full((2, 3), 0.1)
+    # order 0.5: the differences shrink sqrt(2) times per halving; the error left is last / (sqrt 2 - 1)
+    error, notes = richardson([last * np.sqrt(2.0), last])
+    np.testing.assert_allclose(error, 0.1 / (np.sqrt(2.0) - 1.0))
+    assert (notes == MEASURED).all()
+    # a fast shrink is capped at the largest order trusted
+    error, _ = richardson([last * 16.0, last])
+    np.testing.assert_allclose(error, 0.1 / (2.0 ** MAX_ORDER - 1.0))
+
+
+def test_richardson_flags_a_sequence_that_does_not_shrink() -> None:
+    last = np.array([[0.1, 0.1], [0.1, 5e-4]])
+    error, notes = richardson([np.array([[0.09, 0.2], [0.1, 6e-4]]), last])
+    assert notes[0, 0] == NOT_CONVERGING and notes[1, 0] == NOT_CONVERGING   # grew, or did not shrink
+    assert notes[0, 1] == MEASURED                                          # shrank twice
+    assert notes[1, 1] == MEASURED                                          # below the solver's noise
+    assert error[0, 0] == pytest.approx(0.1 / (MIN_SHRINK - 1.0))
+    error, notes = richardson([last])                                       # one halving: order unknown
+    assert notes[0, 0] == NOT_MEASURED and error[0, 0] == pytest.approx(0.1 / (MIN_SHRINK - 1.0))
+
+
+def linear_road(heights: np.ndarray, refine: int) -> np.ndarray:
+    n = heights.shape[-1]
+    fine = np.arange(n * refine) / refine
+    return np.array([np.interp(fine, np.arange(n + 1), np.append(row, row[0])) for row in heights])
+
+
+def levels(heights: np.ndarray, dx: float, tol: float) -> dict[int, np.ndarray]:
+    """Band -> levels (2 kinds, segments x moduli) of the segments solved as given."""
+    n = heights.shape[0] * MODULI.size
+    batch = roadtex.contact_many(heights, dx, MODULI, 2e5, tol=tol, warm_start=True, raise_on_nonconvergence=False)
+    env = roadtex.band_levels(batch.envelope.reshape(n, -1), dx, periodic=True)
+    pr = roadtex.band_levels(batch.pressure.reshape(n, -1), dx, periodic=True, reference=REFERENCE_PRESSURE)
+    return {b: np.stack([env.levels[:, j], pr.levels[:, j]]) for j, b in enumerate(env.bands["band"].to_list())}
+
+
+@functools.cache
+def benched(length: float) -> tuple[roadtex.BudgetChoice, dict[int, np.ndarray], np.ndarray, float]:
+    """Porous asphalt at 1 mm (the sampling agencies hold, where the data's own grid is off by dB and
+    the pilot must refine; benches/pilot_calibration.py), ``length`` m of 0.5 m segments: the pilot's
+    choice, the k = 32 levels of every segment, the segments and their interval."""
+    profile = roadtex.synthetic_pavement("porous_asphalt", length, 1e-3, seed=7)
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                    interpolants=False)
+    data = profile.conditioned(spike_alpha=None).segments(SEGMENT)
+    truth = levels(linear_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+    return choice, truth, data.heights, data.dx
+
+
+def worst_actual(choice: roadtex.BudgetChoice, truth: dict[int, np.ndarray], heights: np.ndarray, dx: float,
+                 refine: int) -> dict[int, float]:
+    """Band -> worst |level - level at k = 32| over segments, moduli and kinds at (refine, choice.tol)."""
+    model = levels(linear_road(heights, refine), dx / refine, choice.tol)
+    return {b: float(np.max(np.abs(model[b] - truth[b]))) for b in choice.band_error_db
+            if np.isfinite(choice.band_error_db[b]) and b in model}
+
+
+@pytest.mark.parametrize("length", [5.0, 10.0])
+def test_stated_error_is_never_below_the_actual_against_k32(length: float) -> None:
+    # 10 m: 20 segments, 12 in the pilot (extrapolated to the rest); 5 m: the pilot sees every segment
+    choice, truth, heights, dx = benched(length)
+    assert abs(choice.dx - dx) < 1e-9 * dx and choice.refine > 1 and choice.within_budget
+    actual = worst_actual(choice, truth, heights, dx, choice.refine)
+    assert set(choice.budget_bands) <= set(actual)
+    for band, error in actual.items():
+        assert choice.band_error_db[band] >= error, (band, choice.band_error_db[band], error)
+    assert max(actual[b] for b in choice.budget_bands) <= choice.budget_db
+
+
+def test_the_chosen_k_is_the_smallest_within_the_budget() -> None:
+    # where the pilot sees every segment nothing is extrapolated: the next coarser candidate, solved
+    # here independently, errs beyond the budget
+    choice, truth, heights, dx = benched(5.0)
+    coarser = max(k for k in REFINE_LADDER if k < choice.refine)
+    actual = worst_actual(choice, truth, heights, dx, coarser)
+    assert max(actual[b] for b in choice.budget_bands) > choice.budget_db, (coarser, choice.refine)
+
+
+def test_one_halving_needs_a_sixteenth_of_the_budget() -> None:
+    # one halving shows no order: factor 4, so k = 1 and 2 must agree within a sixteenth of the
+    # budget for the reference to stop at K = 2 (the old rule stopped at a quarter: factor 1)
+    budget_rows = np.ones(3, bool)
+    assert not reference_converged([np.full((2, 3), 0.04)], budget_rows, 0.2)
+    assert reference_converged([np.full((2, 3), 0.012)], budget_rows, 0.2)
+    # a sequence that stopped shrinking is not converged either, however small its last step
+    assert not reference_converged([np.full((2, 3), 0.05), np.full((2, 3), 0.045)], budget_rows, 0.2)
+
+
+def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 0.025 mm: 20,000 points a 0.5 m segment; the reference refines at least once (40,000 points),
+    # the interpolants' spread and the tol effect stay within SPREAD_MAX_POINTS
+    profile = roadtex.synthetic_pavement("dense_asphalt", 1.0, 0.025e-3, seed=2)
+    solved: list[tuple[str, str, float, int]] = []
+
+    def counting(where: str, original):
+        def solve(pilot, heights, dx, tol, refine=1, interpolant="linear"):
+            solved.append((where, interpolant, tol, heights.shape[1] * refine))
+            return original(pilot, heights, dx, tol, refine, interpolant)
+        return solve
+
+    monkeypatch.setattr(study, "solve_levels", counting("study", study.solve_levels))
+    monkeypatch.setattr(pilot_module, "solve_levels", counting("pilot", pilot_module.solve_levels))
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
+    assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
+    spread = [n for where, interpolant, _, n in solved if interpolant == "pchip"]
+    tolerance = [n for where, _, tol, n in solved if where == "pilot"]
+    assert spread and max(spread) <= SPREAD_MAX_POINTS
+    assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
