@@ -26,6 +26,8 @@ from roadtex.archive.store import file_sha256, write_atomically
 
 #: The folder of the output folder that keeps the plan.
 PLAN_FOLDER = "plan"
+#: The pilot's error rule (roadtex.budget.estimate): a kept pilot of another rule is made again.
+PILOT_RULE = 2
 #: The options a pilot's answer depends on (the others change what runs compute, not the pilot).
 PILOT_OPTIONS = ("youngs_moduli", "mean_pressure", "poisson", "segment_length", "dx", "tol", "refine",
                  "interpolant", "error_budget_db", "spike_alpha", "max_iterations", "band_kind", "band_method",
@@ -56,7 +58,7 @@ class KeptGroup:
 def pilot_key(options: ProcessingOptions) -> str:
     """SHA-256 of what a pilot's answer depends on besides its runs: :data:`PILOT_OPTIONS` and the version."""
     chosen = {name: getattr(options, name) for name in PILOT_OPTIONS}
-    payload = json.dumps({"options": chosen, "roadtex": __version__}, sort_keys=True, default=str)
+    payload = json.dumps({"options": chosen, "roadtex": __version__, "rule": PILOT_RULE}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()
 
 

@@ -152,7 +152,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                    tol_candidates: Sequence[float] | None = None, max_iterations: int = 2000,
                    threads: int | None = None, include_reference_error: bool = True,
                    refine_candidates: Sequence[int] | None = None, interpolants: bool = True,
-                   band_method: str = "dft") -> BudgetChoice:
+                   band_method: str = "dft", group_scale: float = 1.0) -> BudgetChoice:
     """The cheapest (dx, k, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
 
     Args:
@@ -177,6 +177,8 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
             pilot estimates the errors of the levels the job reports (the filter bank errs
             otherwise than DFT band sums: with DFT estimates the stated error was below the actual
             in 34 of 256 rows of a filter-method job).
+        group_scale: how many times the rows of the pilot's runs the group it speaks for holds (the
+            job's group of many runs: its errors are extrapolated to the largest of that many rows).
 
     Returns:
         A :class:`BudgetChoice`.
@@ -196,7 +198,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
                         include_reference_error=include_reference_error, budget_db=budget, interpolants=interpolants,
-                        band_method=band_method)
+                        band_method=band_method, group_scale=group_scale)
     dxs = [forced_dx_f] if forced_dx_f is not None else dxs_given
     refines = [forced_refine_k] if forced_refine_k is not None else refines_given
     if forced_dx_f is not None and refines is None:   # a forced interval refined up to the reference's model grid

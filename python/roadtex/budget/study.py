@@ -261,8 +261,10 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
                 threads: int | None, include_reference_error: bool = True,
                 budget_db: float = DEFAULT_ERROR_BUDGET_DB, max_refine: int = MAX_REFINE,
-                interpolants: bool = True, band_method: str = "dft") -> Pilot:
+                interpolants: bool = True, band_method: str = "dft", group_scale: float = 1.0) -> Pilot:
     """The reference side of a study (module docstring, steps 1, 2 and 5): ``max_refine`` caps K;
+    ``group_scale``: how many times the pilot's runs' rows the group it speaks for holds (its
+    errors are extrapolated to the largest of that many rows);
     ``interpolants`` False skips step 5; ``include_reference_error`` False solves the data's own
     grid only (K = 1) and states no reference error; ``band_method`` ("dft" or "filter") is how
     the job computes its band levels, and so every level of the pilot."""
@@ -289,7 +291,8 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     chosen = np.unique(np.round(np.linspace(0, len(starts) - 1, min(count, len(starts)))).astype(np.int64))
     pilot = Pilot(cleaned, moduli, positive(mean_pressure, "mean_pressure", "Pa"), poisson_ratio(poisson),
                   length, kind, whole_number(max_iterations, "max_iterations", 1), threads, dx,
-                  heights.shape[1], bands, [starts[i] for i in chosen], heights.shape[0] * moduli.size,
+                  heights.shape[1], bands, [starts[i] for i in chosen],
+                  int(np.ceil(heights.shape[0] * moduli.size * max(float(group_scale), 1.0))),
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method)
     pilot_heights = heights[chosen]
     metres = chosen.size * length
