@@ -106,8 +106,9 @@ def test_exports_agree_with_the_clean_file(processed) -> None:
     spike = runs.row(by_predicate=pl.col("name") == "spike.dat", named=True)
     deep = runs.row(by_predicate=pl.col("name") == "deep_dropout.dat", named=True)
     assert (spike["spike_fraction"] + spike["outlier_fraction"]) * spike["points"] >= 1
-    # the 20 readings of the drop-out code (the shares are of the readings kept, about points of them)
-    assert deep["outlier_fraction"] * deep["points"] == pytest.approx(20, abs=1)
+    # the 20 readings of the drop-out code (the shares are of the readings kept: points solved, times
+    # the readings a point averages where the pilot chose a coarser interval than the file's)
+    assert deep["outlier_fraction"] * deep["points"] * deep["dx_used"] / deep["file_dx"] == pytest.approx(20, abs=1)
     segments = pl.read_parquet(work / "results" / "segments.parquet")
     by_run = {name: segments.filter(pl.col("run_id") == Path(name).stem)["contact_fraction"].to_numpy()
               for name in runs["name"]}

@@ -53,12 +53,13 @@ def software_versions() -> dict[str, str]:
 
 
 def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], plan: JobPlan, *,
-            study: pl.DataFrame | None = None) -> dict[str, Path]:
+            study: pl.DataFrame | None = None, keep: bool = True) -> dict[str, Path]:
     """Concatenates the per-run tables of the runs in ``manifest`` (in its order) into the combined
     tables, with ``plan``'s error estimates, and writes parameters.json (the user's options and the
     plan). Only runs whose status holds the job's options count; stale folders are ignored. The
     tables are streamed from the per-run files (polars' streaming sink), so memory does not grow
-    with the archive.
+    with the archive. With ``keep``, the previous job's tables are kept where nothing they depend on
+    changed and their checksums hold (:func:`kept_tables`); ``keep=False`` (``--force``) writes them anew.
     """
     out = Path(out_dir)
     options = plan.options
@@ -100,7 +101,7 @@ def combine(manifest: pl.DataFrame, out_dir: str | os.PathLike[str], plan: JobPl
                "surface_examples": SURFACE_EXAMPLE_SCHEMA, **COMPARISON_TABLES, **SECTION_TABLES}
     combined = {**schemas, "bands": BAND_SCHEMA, "runs": RUN_SCHEMA}
     key = combined_key(plan, included)
-    kept = kept_tables(out, key, [*parts, "pilot", "errors"])
+    kept = kept_tables(out, key, [*parts, "pilot", "errors"]) if keep else None
     if kept is not None:   # nothing new since the last job: its tables, verified
         return write_parameters(out, plan, manifest.height, pilot_notes, key, {**kept,
                                                                                 "edge_effect": kept_edge_effect(out, plan)})

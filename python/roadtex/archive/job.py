@@ -163,7 +163,7 @@ def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *
                     progress.update(status, size)
         finally:
             progress.close()
-        tables = combine(table, out, plan, study=study)
+        tables = combine(table, out, plan, study=study, keep=not force)
     except KeyboardInterrupt:
         # the runs in flight have finished writing by now (the engines wait for them): what is on
         # disk is complete, and a rerun resumes from it
