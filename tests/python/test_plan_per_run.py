@@ -191,3 +191,16 @@ def test_a_combined_table_damaged_since_is_written_again_on_a_rerun(small_archiv
     (out / "bands.parquet").write_bytes(good[: len(good) // 2])
     job(path, out, SMALL)
     assert (out / "bands.parquet").read_bytes() == good
+
+
+def test_the_report_s_spectra_label_every_run_s_bands(mixed) -> None:
+    """Runs of different samplings report different bands: the shared band axis labels them all
+    (it showed only the last panel's, leaving the 0.0375 mm run's shortest bands unlabelled)."""
+    from roadtex.report.data import load_results, pyplot
+    from roadtex.report.spectra_figures import fig_texture_spectra
+
+    _, out = mixed
+    results = load_results(out)
+    figure = fig_texture_spectra(pyplot(), results)
+    labels = {t.get_text() for t in figure.axes[len(figure.axes) // 2].get_xticklabels()}
+    assert set(results.bands["label"].unique().to_list()) <= labels

@@ -95,6 +95,12 @@ def fig_texture_spectra(plt, results: Results):
             mark_over_budget(ax, sorted(over.get(str(name), ())))
             mark_over_budget(ax, sorted(surface_only.get(str(name), ())), surfaces=True)
             hatch_limited(ax, limited.get(str(name), set()), position)
+    # every run's bands on the shared axis (runs of different samplings report different bands: each
+    # panel's own ticks would leave the finer runs' shortest bands without a label)
+    every = bands.select("band", "label").unique("band").sort("band")
+    for bottom in axes[1]:
+        bottom.set_xticks(every["band"].to_list())
+        bottom.set_xticklabels(every["label"].to_list(), rotation=90)
     legend_outside(fig, [axes[0, 0], *fig.axes])   # the moduli's lines as in the first panel, the hatch from any
     return fig
 
