@@ -27,7 +27,6 @@ Time: the solve seconds of each rung relative to k = 1 (one thread). A benchmark
 from __future__ import annotations
 
 import argparse
-import time
 import warnings
 
 import numpy as np
@@ -35,12 +34,11 @@ import polars as pl
 
 from roadtex.budget.areal import tail_factor
 from roadtex.budget.noise import in_budget
-from roadtex.budget.study import contact_levels, difference
-from roadtex.models.grid import refine_periodic, refine_periodic_surface
-from roadtex.models.surface import contact_surface_many
+from roadtex.budget.study import difference
 from roadtex.profiles.trend import remove_lines
 from roadtex.spectra.levels import band_levels
 from roadtex.surfaces import synthetic_surface
+from surface_model_grid import areal as model_grid_areal  # noqa: E402 - benches/ is the script's folder
 
 KINDS = ("cement_concrete", "dense_asphalt", "porous_asphalt")
 DX = 1e-3
@@ -49,30 +47,10 @@ MODULI = np.array([1e6, 2e6, 5e6, 1e7])
 PRESSURE = 2e5
 
 
-def strip(field: np.ndarray, rows: np.ndarray, k: int) -> np.ndarray:
-    """The mean over each data row's width (the fine rows within dy / 2, trapezoid-weighted)."""
-    if k == 1:
-        return field[..., rows, :]
-    offsets = np.arange(-(k // 2), k // 2 + 1)
-    weights = np.ones(offsets.size)
-    if k % 2 == 0:
-        weights[[0, -1]] = 0.5
-    weights /= weights.sum()
-    n = field.shape[-2]
-    return sum(w * field[..., (rows * k + o) % n, :] for o, w in zip(offsets, weights))
-
-
 def areal(tile: np.ndarray, rows: np.ndarray, shift: np.ndarray, k: int, bands: np.ndarray) -> tuple[np.ndarray, float]:
-    """Levels (2, rows x moduli, bands) along data ``rows`` of ``tile`` solved k times finer each way."""
-    fine = refine_periodic_surface(tile, k, k)
-    start = time.perf_counter()
-    solved = contact_surface_many(fine[None], DX / k, DX / k, youngs_modulus=MODULI, mean_pressure=PRESSURE,
-                                  tol=1e-10, warm_start=True, threads=1)
-    seconds = time.perf_counter() - start
-    envelope = solved.envelope[0][:, rows * k] - refine_periodic(shift, k)[None]
-    pressure = strip(solved.pressure[0], rows, k)
-    levels, _ = contact_levels(np.moveaxis(envelope, 0, 1), np.moveaxis(pressure, 0, 1), DX / k, bands, "third_octave")
-    return levels, seconds
+    """Levels (2, rows x moduli, bands) along data ``rows`` of ``tile`` solved k times finer each way
+    (surface_model_grid.py's solve, the same case: 1 mm, E = 1 to 10 MPa, P = 0.2 MPa, tol 1e-10)."""
+    return model_grid_areal(tile, rows, shift, k, k, bands)
 
 
 def extrapolate(coarse: np.ndarray, fine: np.ndarray, r: float | np.ndarray) -> np.ndarray:
