@@ -238,12 +238,12 @@ def expanded(within: np.ndarray, files_sd: np.ndarray, n: float, within_dof: np.
     doubled up to 2^40 times, and the limit): the t-factor rises as the well-known within-file term
     fades, and a longer run must not be stated as more certain of the bias than a shorter one
     knows nor a single segment as more certain than a run's mean."""
-    counts = [float(n) * 2.0 ** j for j in range(41)] + [np.inf]
-    widest = np.zeros(within.shape)
-    for count in counts:
-        terms = [within ** 2 / count, files_sd ** 2]
-        widest = np.fmax(widest, coverage_factor(terms, [within_dof, file_dof]) * np.sqrt(np.sum(terms, axis=0)))
-    return widest
+    # every count at once along a new first axis (one t-quantile call, not 42: the statement was a
+    # third of a data-grid job's time); the largest over the counts, as the loop of fmax took it
+    counts = np.array([float(n) * 2.0 ** j for j in range(41)] + [np.inf]).reshape((-1,) + (1,) * np.ndim(within))
+    terms = [within ** 2 / counts, np.broadcast_to(files_sd ** 2, np.broadcast_shapes(counts.shape, np.shape(files_sd)))]
+    factors = coverage_factor(terms, [within_dof, file_dof]) * np.sqrt(np.sum(terms, axis=0))
+    return np.fmax.reduce(factors, axis=0, initial=0.0)
 
 
 def is_number(value: object) -> bool:
