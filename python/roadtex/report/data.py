@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +38,21 @@ def pyplot():
     plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
                          "axes.titlesize": 10, "legend.fontsize": 8, "svg.fonttype": "none"})
     return plt
+
+
+def save_png_and_svg(fig: Any, svg_path: Path) -> bytes:
+    """Writes ``fig`` to ``svg_path`` and returns it as PNG bytes (for the page).
+
+    Every report figure has a constrained layout, which keeps legends, titles and labels inside the
+    figure (legends outside the axes too: ``loc="outside ..."``), so the files are not cropped to
+    what is drawn: a tight crop draws each figure twice more. The layout is worked out once, by the
+    PNG's draw, and kept for the SVG (the report's time on the demo's figures: 20 s -> 9 s).
+    """
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    fig.set_layout_engine("none")
+    fig.savefig(svg_path, format="svg")
+    return buffer.getvalue()
 
 
 SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")

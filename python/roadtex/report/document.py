@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import json
 import os
 from dataclasses import dataclass
@@ -55,6 +54,7 @@ from roadtex.report.data import (
     plain,
     power_mean_db,
     pyplot,
+    save_png_and_svg,
     tolerance,
 )
 from roadtex.report.error_budget import (
@@ -382,15 +382,13 @@ def build_report(results_dir: str | os.PathLike[str], *, out_dir: str | os.PathL
     written: dict[str, list[Path]] = {}
     sections: list[str] = []
     for number, (name, fig) in enumerate(figures.items(), start=1):
-        buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", bbox_inches="tight")
         png = figures_dir / f"figure_{number}_{name}.png"
-        png.write_bytes(buffer.getvalue())
         svg = png.with_suffix(".svg")
-        fig.savefig(svg, format="svg", bbox_inches="tight")
+        png_bytes = save_png_and_svg(fig, svg)
+        png.write_bytes(png_bytes)
         plt.close(fig)
         written[name] = [png, svg]
-        data = base64.b64encode(buffer.getvalue()).decode("ascii")
+        data = base64.b64encode(png_bytes).decode("ascii")
         caption = html.escape(numbered[name])
         sections.append(f'<figure id="{name}"><img alt="{caption}" src="data:image/png;base64,{data}"/>'
                         f"<figcaption>{caption}</figcaption></figure>")

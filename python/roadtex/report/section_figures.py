@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
-from roadtex.report.data import COLOURS, MM, TEXTURE_DB, legend_outside, pyplot
+from roadtex.report.data import COLOURS, MM, TEXTURE_DB, legend_outside, pyplot, save_png_and_svg
 
 #: A run with at least this many sections is "long": its indicators are drawn along the road.
 MIN_SECTIONS = 3
@@ -82,17 +81,15 @@ def sections_part(root: Path, figures_dir: Path) -> list[str]:
     length = float(sections["length"].max())
     plt = pyplot()
     fig = fig_sections(plt, sections, pl.read_parquet(bands_path), runs)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", bbox_inches="tight")
-    (figures_dir / "sections.png").write_bytes(buffer.getvalue())
-    fig.savefig(figures_dir / "sections.svg", format="svg", bbox_inches="tight")
+    png_bytes = save_png_and_svg(fig, figures_dir / "sections.svg")
+    (figures_dir / "sections.png").write_bytes(png_bytes)
     plt.close(fig)
     caption = html.escape(
         f"Indicators along the road, per section of {length:g} m (sections.parquet), for the runs of at least "
         f"{MIN_SECTIONS} sections: MPD (ISO 13473-1; open markers: fewer than half the section's baselines valid) "
         f"and the enveloped texture level at the job's middle E in the reported band nearest "
         f"{BAND_WAVELENGTH * MM:g} mm, energy-averaged over the contact segments starting in each section.")
-    data = base64.b64encode(buffer.getvalue()).decode("ascii")
+    data = base64.b64encode(png_bytes).decode("ascii")
     return ["<h2>Indicators along the road</h2>",
             f'<figure id="sections"><img alt="{caption}" src="data:image/png;base64,{data}"/>'
             f"<figcaption>{caption}</figcaption></figure>"]
