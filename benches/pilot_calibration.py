@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import roadtex
+from roadtex.budget.estimate import PILOT_SPREAD_FACTOR, run_extreme
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
 from roadtex.budget.study import REFERENCE_TOL, cleaned_profiles, contact_levels, difference, segments_of, stated_errors
 from roadtex.models.grid import refine_periodic
@@ -87,6 +88,36 @@ def replay(name: str, numbers: np.ndarray, budget: np.ndarray, levels: dict[int,
             "flags": sorted(set(flags[:, budget].ravel().tolist()))}
 
 
+def replay_corrected(name: str, budget: np.ndarray, levels: dict[int, np.ndarray], m: int) -> None:
+    """A rule not adopted (issue 39): each candidate's levels corrected by the pilot's mean difference
+    from its reference per modulus and band, stated from the leave-one-out residuals (the rule's
+    extreme and spread factor, plus the reference's own error), against the uncorrected rule; worst
+    stated and actual over the budget bands, and stated / actual (median, least) of the corrected."""
+    rows = levels[1].shape[1]
+    segments = rows // MODULI.size
+    picks = np.unique(np.round(np.linspace(0, segments - 1, min(m, segments))).astype(int))
+    pilot_rows = (picks[:, None] * MODULI.size + np.arange(MODULI.size)).ravel()
+    sequence = {k: v[:, pilot_rows] for k, v in levels.items()}
+    stated, ref_error, _ = stated_errors(sequence, [k for k in LADDER if k < 32], budget, rows,
+                                         spread_factor=PILOT_SPREAD_FACTOR)
+    reference = max(stated)
+    print(f"{name}: {picks.size} pilot segments of {segments}, reference k = {reference}")
+    for k in sorted(stated):
+        if k == reference:
+            continue
+        differences = (sequence[reference] - sequence[k]).reshape(2, picks.size, MODULI.size, -1)
+        correction = differences.mean(axis=1)
+        residuals = ((differences - correction[:, None]) * picks.size / max(picks.size - 1, 1)).reshape(2, -1, budget.size)
+        corrected_stated = (run_extreme(residuals, np.zeros_like(residuals), rows, PILOT_SPREAD_FACTOR) + ref_error).max(axis=0)
+        corrected = (levels[k].reshape(2, segments, MODULI.size, -1) + correction[:, None]).reshape(2, rows, -1)
+        actual = difference(corrected, levels[32]).max(axis=1).max(axis=0)[budget]
+        plain = difference(levels[k], levels[32]).max(axis=1).max(axis=0)[budget]
+        ratio = corrected_stated[budget] / np.maximum(actual, 1e-3)
+        print(f"  k = {k:2d}: uncorrected stated {stated[k][budget].max():.3f} actual {plain.max():.3f} | corrected "
+              f"stated {corrected_stated[budget].max():.3f} actual {actual.max():.3f}, stated / actual median "
+              f"{np.median(ratio):.2f} least {ratio.min():.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--length", type=float, default=20.0, help="metres per synthetic run")
@@ -94,6 +125,8 @@ def main() -> None:
     parser.add_argument("--load", default=None)
     parser.add_argument("--spread", type=float, nargs="+", default=[2.0], help="spread factors to replay")
     parser.add_argument("--segments", type=int, nargs="+", default=[3, 6, 8, 12], help="pilot segment counts")
+    parser.add_argument("--corrected", action="store_true",
+                        help="also replay the corrected rule (not adopted) with the largest segment count")
     args = parser.parse_args()
     data: dict[str, tuple[np.ndarray, np.ndarray, dict[int, np.ndarray]]] = {}
     if args.load:
@@ -117,6 +150,11 @@ def main() -> None:
                 r = replay(name, numbers, budget, levels, m, spread)
                 print(f"{name:<20} {m:3d} {r['K']:2d} {r['median']:12.2f} {r['min']:13.2f} {r['below']:6d} ({max(r['short'], 0.0):.3f}) "
                       f"{r['chosen']!s:>9} {r['smallest']!s:>9}          {', '.join(r['flags'])}")
+
+    if args.corrected:
+        print("\nthe pilot's mean correction (not adopted)")
+        for name, (_, budget, levels) in data.items():
+            replay_corrected(name, budget, levels, max(args.segments))
 
 
 if __name__ == "__main__":
