@@ -22,7 +22,8 @@
 //! the coarser levels' pairs weighted N_level / N (the time per solve includes them).
 //!
 //! Run: `cargo bench --bench fft_floor` (add `-- --large` for 2^20, about a minute or more;
-//! `-- --only road|16|20|road20` for one case (`road20`: a 52 m road-like profile at 0.05 mm),
+//! `-- --only road|16|20|road20|model` for one case (`road20`: a 52 m road-like profile at 0.05 mm;
+//! `model`: the road case's segments on a model grid k = 8 times finer, `--refine k` for another k),
 //! with `--profile` to leave out the FFT-pair timings, e.g. under `perf record`; `--baseline`
 //! runs the solver's own loops in their baseline (SSE2) copies, not the AVX2 ones chosen at run
 //! time; `--sizes 16,18,20` and `--seeds 0,1,2` for self-affine cases of those sizes and seeds;
@@ -193,6 +194,42 @@ fn road(repeats: usize) -> Measured {
     })
 }
 
+/// `--only model` (issue 39): the bulk job's default unit of work on the model grid, the road case's
+/// segments joined linearly to a grid `k` times finer (`--refine k`, default 8: N = 8,000), every
+/// modulus warm-started from the last as the job does, at the pilot's usual tol 1e-4.
+fn model_grid_road(refine: usize, repeats: usize) -> Measured {
+    let (n, segments, dx) = (1000usize, 16u64, 5e-4);
+    let moduli = [1e6, 2e6, 5e6, 1e7];
+    let fine = n * refine;
+    let profiles: Vec<Vec<f64>> = (0..segments)
+        .map(|seed| {
+            let data = self_affine(n, n as f64 * dx, HURST, RMS_SLOPE, CUTOFF, seed);
+            (0..fine)
+                .map(|i| {
+                    let (j, t) = (i / refine, (i % refine) as f64 / refine as f64);
+                    data[j] + (data[(j + 1) % n] - data[j]) * t
+                })
+                .collect()
+        })
+        .collect();
+    let solver = ContactSolver::new(fine, dx / refine as f64, SolverOptions { tol: 1e-4, ..Default::default() }).expect("solver");
+    let rubbers: Vec<Material> = moduli.iter().map(|&e| Material::new(e, 0.5).expect("material")).collect();
+    measure(&format!("road k={refine} x4 E warm 1e-4"), fine, profiles.len() * moduli.len(), repeats, || {
+        let mut workspace = Workspace::default();
+        let mut out = Vec::with_capacity(profiles.len() * moduli.len());
+        for heights in &profiles {
+            let mut previous: Option<Vec<f64>> = None;
+            for (m, &rubber) in rubbers.iter().enumerate() {
+                let guess = previous.as_deref().map(|p| next_modulus_guess(p, rubbers[m - 1], rubber));
+                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, guess.as_deref()).expect("solve");
+                previous = sol.converged.then(|| sol.pressure.clone());
+                out.push(sol);
+            }
+        }
+        (out, workspace.fft_pairs(), workspace.fft_pairs_equivalent())
+    })
+}
+
 fn self_affine_case(log2_n: u32, repeats: usize, seed: u64, cold: bool) -> Measured {
     let n = 1usize << log2_n;
     let heights = self_affine(n, 1.0, HURST, RMS_SLOPE, CUTOFF, seed);
@@ -275,6 +312,10 @@ fn run() {
         if large || only == Some("20") {
             sizes.push(20);
         }
+    }
+    if only == Some("model") {
+        let refine = args.iter().position(|a| a == "--refine").and_then(|i| args.get(i + 1)).map_or(8, |v| v.parse().expect("k"));
+        cases.push(model_grid_road(refine, 5));
     }
     if only == Some("road20") {
         if cold {

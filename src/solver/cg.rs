@@ -42,14 +42,19 @@ const MAX_SWEEPS: usize = 40;
 /// residual by this factor: measured best among 0.3, 0.1, 0.02 and 0.005 for time to solution
 /// (and at 2^16 since the sixth pass: 0.3 took 8 % more time, 0.5 25 % more).
 const ROUGH_REDUCTION: f64 = 0.1;
-/// The same for the line solver's small profiles (at most SMALL_PROFILE points), whose sweeps
-/// (a coarse space of tens of vectors, a set update) cost little against an inner iteration, so
-/// that more, rougher sweeps pay: on the road segments of N = 1,000 (the bulk job's unit of work,
+/// The same for the line solver's profiles of at most SMALL_PROFILE points, whose sweeps (a coarse
+/// space of tens to hundreds of vectors, a set update) cost little against an inner iteration, so
+/// that more, rougher sweeps pay: on the road segments of N = 1,000 (the data grid's unit of work,
 /// four moduli warm-started) 0.3 took 8.0 iterations and 73 FFT pairs-equivalent per solve against
-/// 9.4 and 77 at 0.1 (0.5: 7.7 and 73, alternately in one run). Between 2,048 and 2^16 points
-/// unmeasured (the benchmark's clock is too coarse there), so left at ROUGH_REDUCTION.
+/// 9.4 and 77 at 0.1 (0.5: 7.7 and 73, alternately in one run). The model grid's segments (issue 39,
+/// `cargo bench --bench fft_floor -- --only model --refine k`: the road segments joined linearly k
+/// times finer, tol 1e-4): k = 4 (N = 4,000) 7.7 iterations and 79 pairs-equivalent against 10.4
+/// and 94 at 0.1, k = 8 9.1 and 80-88 against 12.4 and 91-98, k = 16 10.7 and 88 against 14.1 and
+/// 109 (0.5: 8.5 / 9.8 iterations, 81 / 89: no better); the self-affine 2^16 case (above the bound,
+/// its nested levels below it) unchanged (378-395 against 381-400). Above 2^15 left at
+/// ROUGH_REDUCTION (measured best there).
 const SMALL_PROFILE_ROUGH_REDUCTION: f64 = 0.3;
-const SMALL_PROFILE: usize = 2048;
+const SMALL_PROFILE: usize = 1 << 15;
 /// Most pairs of contact runs summed to assemble E (runs (runs + 1) / 2, about 1 ns a pair at
 /// 2^20 with the tiled sums of [`PairSums`], 4 ns before them: up to some 63,000 runs). Beyond,
 /// only the largest islands are deflated, and the sweeps then need many more iterations: on a
