@@ -178,20 +178,30 @@ fn road(repeats: usize) -> Measured {
     // Four passes over the segments per repetition: about 0.4 s, long against the CPU clock's step.
     let passes = 4;
     measure("road N=1000 x4 E warm", n, passes * profiles.len() * moduli.len(), repeats, || {
-        let mut workspace = Workspace::default();
-        let mut out = Vec::with_capacity(passes * profiles.len() * moduli.len());
-        for heights in std::iter::repeat(&profiles).take(passes).flatten() {
-            let mut previous: Option<Vec<f64>> = None;
-            for (m, &rubber) in rubbers.iter().enumerate() {
-                // As the bulk job does (batch::solve_many): the last pressure shifted for a stiffer rubber.
-                let guess = previous.as_deref().map(|p| next_modulus_guess(p, rubbers[m - 1], rubber));
-                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, guess.as_deref()).expect("solve");
-                previous = sol.converged.then(|| sol.pressure.clone());
-                out.push(sol);
-            }
-        }
-        (out, workspace.fft_pairs(), workspace.fft_pairs_equivalent())
+        warm_moduli(&solver, std::iter::repeat(&profiles).take(passes).flatten(), &rubbers)
     })
+}
+
+/// Every profile under every rubber in turn, one workspace, each modulus started as the bulk job
+/// does (batch::solve_many): the last pressure shifted for a stiffer rubber. The solutions and the
+/// FFT pairs the workspace applied (and their equivalent with coarser levels).
+fn warm_moduli<'a>(
+    solver: &ContactSolver,
+    profiles: impl Iterator<Item = &'a Vec<f64>>,
+    rubbers: &[Material],
+) -> (Vec<ContactSolution>, u64, f64) {
+    let mut workspace = Workspace::default();
+    let mut out = Vec::new();
+    for heights in profiles {
+        let mut previous: Option<Vec<f64>> = None;
+        for (m, &rubber) in rubbers.iter().enumerate() {
+            let guess = previous.as_deref().map(|p| next_modulus_guess(p, rubbers[m - 1], rubber));
+            let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, guess.as_deref()).expect("solve");
+            previous = sol.converged.then(|| sol.pressure.clone());
+            out.push(sol);
+        }
+    }
+    (out, workspace.fft_pairs(), workspace.fft_pairs_equivalent())
 }
 
 /// `--only model` (issue 39): the bulk job's default unit of work on the model grid, the road case's
@@ -215,18 +225,7 @@ fn model_grid_road(refine: usize, repeats: usize) -> Measured {
     let solver = ContactSolver::new(fine, dx / refine as f64, SolverOptions { tol: 1e-4, ..Default::default() }).expect("solver");
     let rubbers: Vec<Material> = moduli.iter().map(|&e| Material::new(e, 0.5).expect("material")).collect();
     measure(&format!("road k={refine} x4 E warm 1e-4"), fine, profiles.len() * moduli.len(), repeats, || {
-        let mut workspace = Workspace::default();
-        let mut out = Vec::with_capacity(profiles.len() * moduli.len());
-        for heights in &profiles {
-            let mut previous: Option<Vec<f64>> = None;
-            for (m, &rubber) in rubbers.iter().enumerate() {
-                let guess = previous.as_deref().map(|p| next_modulus_guess(p, rubbers[m - 1], rubber));
-                let sol = solver.solve_from(&mut workspace, heights, rubber, 2e5, guess.as_deref()).expect("solve");
-                previous = sol.converged.then(|| sol.pressure.clone());
-                out.push(sol);
-            }
-        }
-        (out, workspace.fft_pairs(), workspace.fft_pairs_equivalent())
+        warm_moduli(&solver, profiles.iter(), &rubbers)
     })
 }
 
