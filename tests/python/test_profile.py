@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from roadtex.errors import ConditioningWarning
 from roadtex.profiles import Profile, read_profile, write_profile
+from roadtex.profiles.conditioning import distance_jumps
 from roadtex.profiles.plausibility import DISTANCE_UNIT_STATED
 
 
@@ -559,6 +560,9 @@ def test_csv_round_trip_is_bit_exact_for_any_floats(tmp_path_factory, heights, s
     profile = Profile(heights, x, 1.0)
     if not np.all(np.diff(profile.positions) > 0):
         return
+    # distances that jump by over 1000 readings' steps (two runs in one file) are refused by the
+    # reader, not read back (tests/python/test_distance_jumps.py): not this round trip's subject
+    assume(distance_jumps(profile.positions).size == 0)
     path = write_profile(profile, tmp_path_factory.mktemp("rt") / "p.csv")
     back = read_profile(path)
     np.testing.assert_array_equal(back.heights, profile.heights)
