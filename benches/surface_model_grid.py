@@ -82,6 +82,20 @@ def line(lines: np.ndarray, k: int, bands: np.ndarray) -> np.ndarray:
     return contact_levels(batch.envelope, batch.pressure, DX / k, bands, "third_octave")[0]
 
 
+def bench_case(kind: str, width: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                        np.ndarray, np.ndarray]:
+    """One bench surface (LENGTH x ``width`` at DX, its mean removed) and what the benches compare on
+    it: (tile, the 4 analysed rows, those rows with their lines removed, the lines themselves (the
+    areal envelope's shift), the reported band numbers, which of them are budget bands)."""
+    surface = synthetic_surface(kind, LENGTH, width, DX, seed=seed)
+    tile = surface.heights - surface.heights.mean()
+    rows = np.linspace(0, tile.shape[0] - 1, 4).round().astype(int)
+    lines = remove_lines(tile[rows])[0]
+    shift = tile[rows] - lines
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    return tile, rows, lines, shift, bands, in_budget(bands, DX, LENGTH)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default="5,6")
@@ -100,14 +114,7 @@ def main() -> int:
     worst: dict[tuple[int, int], list[float]] = {}
     for kind in KINDS:
         for seed in (int(s) for s in args.seeds.split(",")):
-            surface = synthetic_surface(kind, LENGTH, args.width, DX, seed=seed)
-            tile = surface.heights - surface.heights.mean()
-            rows = np.linspace(0, tile.shape[0] - 1, 4).round().astype(int)
-            lines = remove_lines(tile[rows])[0]
-            shift = tile[rows] - lines
-            table = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))
-            bands = table["band"].to_numpy()
-            budget = in_budget(bands, DX, LENGTH)
+            tile, rows, lines, shift, bands, budget = bench_case(kind, args.width, seed)
             reference, ref_seconds = areal(tile, rows, shift, ref_k, ref_ky, bands)
             line_reference = line(lines, 64, bands)
             base = None

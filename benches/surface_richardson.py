@@ -30,21 +30,13 @@ import argparse
 import warnings
 
 import numpy as np
-import polars as pl
 
 from roadtex.budget.areal import tail_factor
-from roadtex.budget.noise import in_budget
 from roadtex.budget.study import difference
-from roadtex.profiles.trend import remove_lines
-from roadtex.spectra.levels import band_levels
-from roadtex.surfaces import synthetic_surface
 from surface_model_grid import areal as model_grid_areal  # noqa: E402 - benches/ is the script's folder
+from surface_model_grid import bench_case  # noqa: E402
 
 KINDS = ("cement_concrete", "dense_asphalt", "porous_asphalt")
-DX = 1e-3
-LENGTH = 0.128
-MODULI = np.array([1e6, 2e6, 5e6, 1e7])
-PRESSURE = 2e5
 
 
 def areal(tile: np.ndarray, rows: np.ndarray, shift: np.ndarray, k: int, bands: np.ndarray) -> tuple[np.ndarray, float]:
@@ -96,13 +88,7 @@ def main() -> int:
     summary: list[dict[str, float | str]] = []
     for kind in args.kinds.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
-            surface = synthetic_surface(kind, LENGTH, args.width, DX, seed=seed)
-            tile = surface.heights - surface.heights.mean()
-            rows = np.linspace(0, tile.shape[0] - 1, 4).round().astype(int)
-            lines = remove_lines(tile[rows])[0]
-            shift = tile[rows] - lines
-            bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
-            budget = in_budget(bands, DX, LENGTH)
+            tile, rows, _, shift, bands, budget = bench_case(kind, args.width, seed)
             reference, ref_seconds = areal(tile, rows, shift, args.reference, bands)
             levels, seconds = {}, {}
             for k in rungs:
