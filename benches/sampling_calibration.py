@@ -6,7 +6,8 @@
 Each CAPTIF file (0.0375 mm) is cut into 0.5 m segments every --step m (the job's conditioning),
 each segment averaged to every sampling of roadtex.budget.sampling_calibration.DEFAULT_SAMPLINGS
 (interval averages at 0.05, 0.1, 0.25, 0.5, 1 mm; a 0.2 mm spot sampled every 0.5 and 1 mm), both solved
-converged (linear road, model dx <= 0.03 mm for the averaged data, 0.019 mm for the fine) at
+converged (the job's road, monotone cubics since 0.5.0, model dx <= 0.03 mm for the averaged data; the
+fine data's linear road at 0.019 mm) at
 E = 1, 2, 5, 10 MPa; the table (roadtex.budget.sampling.summarise) is written to --out. Then the
 full leave-one-out: each file's run-mean difference against a calibration of the other two, per
 sampling: the share of band x E cases the stated run-mean uncertainty covers, and the median of
@@ -24,6 +25,7 @@ import polars as pl
 import roadtex
 from roadtex.budget.sampling import summarise
 from roadtex.budget.sampling_calibration import DEFAULT_SAMPLINGS, file_differences, leave_one_out
+from roadtex.models.grid import DEFAULT_INTERPOLANT
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "captif-slp"
 SHIPPED = Path(__file__).resolve().parents[1] / "python" / "roadtex" / "budget" / "data" / "sampling_calibration.csv"
@@ -36,6 +38,7 @@ def header(files: list[Path], step: float) -> str:
         f"# roadtex sampling calibration, format 1, made by benches/sampling_calibration.py (roadtex {roadtex.__version__})",
         f"# from {', '.join(f.name for f in files)} (CAPTIF SLP, 0.0375 mm, MIT licence), 0.5 m segments every {step:g} m",
         f"# samplings dx/width (mm): {cases}; E = {', '.join(f'{e / 1e6:g}' for e in MODULI)} MPa; P = 0.2 MPa",
+        f"# coarse readings joined as the job joins them ({DEFAULT_INTERPOLANT}), the fine ones linearly, each solved converged",
         "# level: enveloped (dB re 1 um) or pressure (dB re 1 Pa); dx, width, centre_wavelength in m; youngs_modulus in Pa;",
         "# bias_db = mean(coarse - fine), within_sd_db / between_sd_db = scatter of segments in a file / of files' means,",
         "# bias_se_db = standard error of bias_db; files, segments = counts; between_floored = between_sd_db at the floor",

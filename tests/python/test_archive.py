@@ -14,6 +14,7 @@ import pytest
 from polars.testing import assert_frame_equal
 
 import roadtex
+from roads import job_road
 from roadtex.archive import (
     BAND_SCHEMA,
     ERROR_SCHEMA,
@@ -169,8 +170,7 @@ def test_segment_values_match_a_direct_call_of_the_core(archive: Path, reference
     assert run["model_dx"].item() == pytest.approx(dx / refine)
     profile = read_profile(table["path"][1]).conditioned(dx=dx, spike_alpha=OPTIONS.spike_alpha)
     segment = profile.segments(OPTIONS.segment_length, OPTIONS.segment_overlap).heights[2]
-    n = segment.size
-    road = np.interp(np.arange(n * refine) / refine, np.arange(n + 1), np.append(segment, segment[0]))
+    road = job_road(segment, refine)[0]   # the job's road (monotone cubic), built independently
     r = roadtex.contact(road, profile.dx / refine, 1e7, OPTIONS.mean_pressure, tol=OPTIONS.tol)
     row = pl.read_parquet(reference / "segments.parquet").filter(
         (pl.col("run_id") == "run01") & (pl.col("segment") == 2) & (pl.col("youngs_modulus") == 1e7))

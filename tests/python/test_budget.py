@@ -15,6 +15,7 @@ import polars as pl
 import pytest
 
 import roadtex
+from roads import job_road
 from roadtex.budget import (
     DEFAULT_ERROR_BUDGET_DB,
     budget_bands,
@@ -23,7 +24,6 @@ from roadtex.budget import (
     next_five_smooth,
     previous_five_smooth,
 )
-from roadtex.models.grid import refine_periodic
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 
 TOLERANCE_DB = 0.02  # the issue's allowance: a stated error may be below the actual one by this much
@@ -88,13 +88,6 @@ def levels(heights: np.ndarray, dx: float, moduli: np.ndarray, tol: float) -> np
     return texture.bands, np.stack([np.repeat(texture.levels, moduli.size, axis=0), env.levels, pr.levels])
 
 
-def linear_road(heights: np.ndarray, refine: int) -> np.ndarray:
-    """Periodic segments' readings joined by straight lines, sampled ``refine`` times finer."""
-    n = heights.shape[1]
-    fine = np.arange(n * refine) / refine
-    return np.array([np.interp(fine, np.arange(n + 1), np.append(row, row[0])) for row in heights])
-
-
 def by_band(bands: pl.DataFrame, values: np.ndarray) -> dict[int, np.ndarray]:
     """Band number -> (kinds, rows) levels, for the bands reported in ``bands``."""
     return {b: values[:, :, i] for i, (b, ok) in enumerate(zip(bands["band"].to_list(), bands["reported"].to_list()))
@@ -107,11 +100,11 @@ def actual_errors(profile: roadtex.Profile, dx: float, tol: float, moduli: np.nd
     for the setting (dx, refine, tol): texture levels at dx, the contact model's on dx / refine."""
     fine = profile.conditioned(spike_alpha=None).segments(segment_length)
     texture_bands, texture_ref = levels(fine.heights, fine.dx, moduli, 1e-10)
-    truth_bands, truth = levels(linear_road(fine.heights, truth_refine), fine.dx / truth_refine, moduli, 1e-10)
+    truth_bands, truth = levels(job_road(fine.heights, truth_refine), fine.dx / truth_refine, moduli, 1e-10)
     coarse = profile.conditioned(dx=dx, spike_alpha=None).segments(segment_length)
     assert len(coarse) == len(fine)
     coarse_bands, coarse_levels = levels(coarse.heights, coarse.dx, moduli, tol)
-    model_bands, model_levels = levels(linear_road(coarse.heights, refine), coarse.dx / refine, moduli, tol)
+    model_bands, model_levels = levels(job_road(coarse.heights, refine), coarse.dx / refine, moduli, tol)
     reference, texture = by_band(texture_bands, texture_ref), by_band(coarse_bands, coarse_levels)
     converged, model = by_band(truth_bands, truth), by_band(model_bands, model_levels)
     out = {}
@@ -203,7 +196,7 @@ def test_convergence_study_table(asphalt: roadtex.Profile) -> None:
     pilot = segments.heights[[0, -1]]
     levels = {}
     for k in (1, 16):
-        batch = roadtex.contact_many(refine_periodic(pilot, k, "linear"), asphalt.dx / k, [2.5e6], 2e5, tol=1e-10)
+        batch = roadtex.contact_many(job_road(pilot, k), asphalt.dx / k, [2.5e6], 2e5, tol=1e-10)
         table = roadtex.band_levels(batch.envelope.reshape(2, -1), asphalt.dx / k, periodic=True)
         levels[k] = dict(zip(table.bands["band"].to_list(), table.levels.T))
     checked = 0

@@ -14,6 +14,7 @@ import polars as pl
 import pytest
 
 import roadtex
+from roads import job_road, linear_road, pchip_road
 from roadtex.archive import ProcessingOptions, process
 from roadtex.models.grid import coarse_points, refine_periodic
 from roadtex.profiles.conditioning import clean
@@ -25,17 +26,12 @@ TRUTH_REFINE = 32
 MODULI = np.array([2e6, 1e7])
 
 
-def linear_road(heights: np.ndarray, refine: int) -> np.ndarray:
-    n = heights.shape[-1]
-    fine = np.arange(n * refine) / refine
-    return np.array([np.interp(fine, np.arange(n + 1), np.append(row, row[0])) for row in np.atleast_2d(heights)])
-
-
 def test_linear_refinement_is_numpys_periodic_interpolation() -> None:
     heights = np.random.default_rng(3).normal(size=(3, 40)) * 1e-3
     for k in (2, 3, 8):
-        fine = refine_periodic(heights, k)
+        fine = refine_periodic(heights, k, "linear")
         np.testing.assert_allclose(fine, linear_road(heights, k), rtol=0, atol=1e-17)
+        np.testing.assert_allclose(refine_periodic(heights, k), pchip_road(heights, k), rtol=0, atol=1e-17)  # the default
         assert np.array_equal(coarse_points(fine, k), heights)   # every k-th point is a reading, bit for bit
     assert refine_periodic(heights, 1) is heights
 
@@ -75,9 +71,9 @@ def actual_errors(profile: roadtex.Profile, choice: roadtex.BudgetChoice, length
     data = resampled.fill_dropouts().detrend("linear").segments(length)
     measured = data.heights[~too_few_readings(missing_shares(np.isnan(resampled.heights), data.start_indices,
                                                               data.heights.shape[1]))]
-    truth_bands, truth = levels(linear_road(measured, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+    truth_bands, truth = levels(job_road(measured, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
     assert abs(choice.dx - data.dx) < 1e-9 * data.dx   # coarse data: the data's own interval
-    model_bands, model = levels(linear_road(measured, choice.refine), data.dx / choice.refine, choice.tol)
+    model_bands, model = levels(job_road(measured, choice.refine), data.dx / choice.refine, choice.tol)
     truth_index = {b: i for i, b in enumerate(truth_bands["band"].to_list())}
     return {b: float(np.max(np.abs(model[:, :, j] - truth[:, :, truth_index[b]])))
             for j, b in enumerate(model_bands["band"].to_list()) if b in choice.band_error_db
@@ -122,13 +118,13 @@ def test_interpolant_spread_is_stated_apart() -> None:
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=0.25)
     spread = choice.interpolant_spread_db
     assert set(choice.budget_bands) <= set(spread)
-    # measured independently: the same pilot segment's converged levels on a cubic road differ from
-    # the linear road's by at most the stated spread (which extends the pilot's rows to the run's)
+    # measured independently: the same pilot segment's converged levels on the linear road differ from
+    # the job's (monotone cubic) road's by at most the stated spread (which extends the pilot's rows to the run's)
     data = profile.conditioned(spike_alpha=3.0).segments(0.25)
     k = choice.reference_refine
     heights = data.heights[:1]
     bands_linear, linear = levels(linear_road(heights, k), data.dx / k, 1e-10)
-    bands_cubic, cubic = levels(refine_periodic(heights, k, "pchip"), data.dx / k, 1e-10)
+    bands_cubic, cubic = levels(job_road(heights, k), data.dx / k, 1e-10)
     for j, band in enumerate(bands_linear["band"].to_list()):
         if band in choice.budget_bands:
             assert np.max(np.abs(cubic[:, :, j] - linear[:, :, j])) <= spread[band] + TOLERANCE_DB
@@ -177,11 +173,11 @@ def test_forced_refine_without_budget_solves_on_the_finer_grid(tmp_path: Path) -
     np.testing.assert_allclose(runs["model_dx"].to_numpy(), runs["dx_used"].to_numpy() / 4)
     example = pl.read_parquet(tmp_path / "out" / "examples.parquet")
     assert example["dx"].unique().to_list() == pytest.approx([1e-3 / 4])
-    # the enveloped levels are those of the linear road solved every 0.25 mm, in the data's bands
+    # the enveloped levels are those of the job's road (monotone cubic) solved every 0.25 mm, in the data's bands
     bands = pl.read_parquet(tmp_path / "out" / "bands.parquet").filter(pl.col("run_id") == "dense_asphalt")
     profile = roadtex.read_profile(tmp_path / "in" / "dense_asphalt.npy", dx=1e-3)
     segments = profile.conditioned(dx=1e-3, spike_alpha=None).segments(0.2)
-    model_bands, model = levels(linear_road(segments.heights, 4), segments.dx / 4, 1e-6)
+    model_bands, model = levels(job_road(segments.heights, 4), segments.dx / 4, 1e-6)
     numbers = model_bands["band"].to_list()
     job = bands.sort("segment", "youngs_modulus", "band")
     band_list = job["band"].unique(maintain_order=True).to_list()
@@ -193,11 +189,11 @@ def test_forced_refine_without_budget_solves_on_the_finer_grid(tmp_path: Path) -
 
 def test_each_run_is_solved_on_its_own_groups_model_grid(tmp_path: Path) -> None:
     # converged levels do not depend on the grid, so each pilot group keeps its own (cheapest) one:
-    # a 1 mm group and a 0.25 mm group, each run on its own readings
+    # a 1 mm group and a 0.1 mm group, each run on its own readings
     import json
 
     rows = []
-    for kind, dx in (("cement_concrete", 1e-3), ("porous_asphalt", 0.25e-3)):
+    for kind, dx in (("cement_concrete", 1e-3), ("porous_asphalt", 0.1e-3)):
         path = tmp_path / f"{kind}.npy"
         np.save(path, roadtex.synthetic_pavement(kind, 0.6, dx, seed=4).heights)
         rows.append({"path": str(path), "run_id": kind, "dx": dx, "pavement": kind})

@@ -9,10 +9,10 @@ import warnings
 import numpy as np
 import pytest
 
+from roads import job_road
 from roadtex.budget.pilot import choose_setting
 from roadtex.errors import InvalidInputError
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import refine_periodic
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.pavements import synthetic_pavement
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -24,7 +24,7 @@ MODULI, PRESSURE, SEGMENT = (2e6, 1e7), 2e5, 0.128
 def filter_levels(heights: np.ndarray, dx: float, refine: int, tol: float) -> list[dict[int, np.ndarray]]:
     """Texture, enveloped and pressure levels by the filter method of segments solved on a model grid
     ``refine`` times finer at ``tol``, each as band -> levels of every row."""
-    model = refine_periodic(heights, refine, "linear")
+    model = job_road(heights, refine)
     batch = contact_many(model, dx / refine, MODULI, PRESSURE, tol=tol, warm_start=True)
     n = model.shape[1]
     out = [band_levels(heights, dx, periodic=True, method="filter"),

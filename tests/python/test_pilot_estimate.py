@@ -15,6 +15,7 @@ import pytest
 
 import roadtex
 import roadtex.budget.pilot as pilot_module
+from roads import job_road
 from roadtex.budget import study
 from roadtex.budget.study import (
     MAX_ORDER,
@@ -56,12 +57,6 @@ def test_richardson_flags_a_sequence_that_does_not_shrink() -> None:
     assert notes[0, 0] == NOT_MEASURED and error[0, 0] == pytest.approx(0.1 / (MIN_SHRINK - 1.0))
 
 
-def linear_road(heights: np.ndarray, refine: int) -> np.ndarray:
-    n = heights.shape[-1]
-    fine = np.arange(n * refine) / refine
-    return np.array([np.interp(fine, np.arange(n + 1), np.append(row, row[0])) for row in heights])
-
-
 def levels(heights: np.ndarray, dx: float, tol: float) -> dict[int, np.ndarray]:
     """Band -> levels (2 kinds, segments x moduli) of the segments solved as given."""
     n = heights.shape[0] * MODULI.size
@@ -80,14 +75,14 @@ def benched(length: float) -> tuple[roadtex.BudgetChoice, dict[int, np.ndarray],
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                                     interpolants=False)
     data = profile.conditioned(spike_alpha=None).segments(SEGMENT)
-    truth = levels(linear_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+    truth = levels(job_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
     return choice, truth, data.heights, data.dx
 
 
 def worst_actual(choice: roadtex.BudgetChoice, truth: dict[int, np.ndarray], heights: np.ndarray, dx: float,
                  refine: int) -> dict[int, float]:
     """Band -> worst |level - level at k = 32| over segments, moduli and kinds at (refine, choice.tol)."""
-    model = levels(linear_road(heights, refine), dx / refine, choice.tol)
+    model = levels(job_road(heights, refine), dx / refine, choice.tol)
     return {b: float(np.max(np.abs(model[b] - truth[b]))) for b in choice.band_error_db
             if np.isfinite(choice.band_error_db[b]) and b in model}
 
@@ -130,8 +125,8 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     solved: list[tuple[str, str, float, int]] = []
 
     def counting(where: str, original):
-        def solve(pilot, heights, dx, tol, refine=1, interpolant="linear"):
-            solved.append((where, interpolant, tol, heights.shape[1] * refine))
+        def solve(pilot, heights, dx, tol, refine=1, interpolant=None):
+            solved.append((where, interpolant or pilot.interpolant, tol, heights.shape[1] * refine))
             return original(pilot, heights, dx, tol, refine, interpolant)
         return solve
 
@@ -139,7 +134,7 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     monkeypatch.setattr(pilot_module, "solve_levels", counting("pilot", pilot_module.solve_levels))
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
     assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
-    spread = [n for where, interpolant, _, n in solved if interpolant == "pchip"]
+    spread = [n for where, interpolant, _, n in solved if interpolant == "linear"]   # the default pchip road against the linear one
     tolerance = [n for where, _, tol, n in solved if where == "pilot"]
     assert spread and max(spread) <= SPREAD_MAX_POINTS
     assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS

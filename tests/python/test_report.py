@@ -18,6 +18,7 @@ from matplotlib import image
 
 from edited_results import as_written_by_a_job
 from report_pages import WellFormed, column, parse, text_without_images
+from roads import job_road
 from roadtex.archive import ProcessingOptions, process
 from roadtex.demo import write_synthetic_archive
 from roadtex.report import FIGURES, SEED_FIGURES, build_report, octave_table
@@ -89,8 +90,9 @@ LEVELS = ("enveloped_level", "pressure_level", "texture_level")
 def direct_octave_levels(loaded) -> pl.DataFrame:
     """Per run, E and octave band, the run's levels computed straight from its file, independently
     of the job's band path: read, conditioned and cut as the job does (as in test_archive_outputs'
-    bit-for-bit test), the segments' readings joined linearly by np.interp (periodic: the last
-    reading joins the first) onto the job's model grid (runs.parquet refine, model_dx), solved,
+    bit-for-bit test), the segments' readings joined by the job's road (monotone cubics, built with
+    scipy in tests/python/roads.py; periodic: the last reading joins the first) onto the job's model
+    grid (runs.parquet refine, model_dx), solved,
     binned straight into octaves (enveloped and pressure on the model grid, texture on the data's)
     and averaged over the segments in power."""
     from roadtex import contact_many
@@ -106,8 +108,7 @@ def direct_octave_levels(loaded) -> pl.DataFrame:
         count, n = segments.heights.shape
         k, model_dx = run["refine"], run["model_dx"]
         assert model_dx == pytest.approx(run["dx_used"] / k, rel=1e-12)
-        fine = np.arange(n * k) / k
-        model = np.stack([np.interp(fine, np.arange(n + 1), np.append(h, h[0])) for h in segments.heights])
+        model = job_road(segments.heights, k)
         batch = contact_many(model, model_dx, moduli, options["mean_pressure"], poisson=options["poisson"],
                              tol=run["tol_used"], max_iterations=options["max_iterations"], warm_start=True,
                              raise_on_nonconvergence=False)

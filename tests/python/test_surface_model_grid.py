@@ -34,7 +34,7 @@ LENGTH = 0.128
 
 def test_the_surface_refinement_is_bilinear_and_keeps_every_reading() -> None:
     z = np.random.default_rng(3).normal(size=(5, 7))
-    fine = refine_periodic_surface(z, 4, 3)
+    fine = refine_periodic_surface(z, 4, 3, "linear")
     assert fine.shape == (15, 28)
     np.testing.assert_array_equal(fine[::3, ::4], z)
     # against scipy's bilinear interpolation of the surface repeated once each way (the periodic wrap)
@@ -245,7 +245,8 @@ def test_a_large_tiles_k_is_bounded_and_still_estimated_against_the_finest_rung(
 
 def test_refine_1_hands_the_solvers_the_datas_own_tiles(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """k = 1 is the path before the model grid: the areal solver gets the tiles at the data's
-    spacings; refine = 2 gives it the same tiles refined bilinearly, every other point a reading
+    spacings; refine = 2 gives it the same tiles refined by the default road (monotone cubics each
+    way), every other point a reading
     (on the code before the model grid, refine was ignored: dx / 2 was never asked for)."""
     from roadtex.archive import surface_run
 
@@ -260,14 +261,14 @@ def test_refine_1_hands_the_solvers_the_datas_own_tiles(tmp_path: Path, monkeypa
     for current in (1, 2):
         surface_job(tmp_path, f"k{current}", refine=current, error_budget_db=None)
     current = 3   # the options' interpolant reaches the model grid
-    surface_job(tmp_path, "pchip", refine=2, interpolant="pchip", error_budget_db=None)
+    surface_job(tmp_path, "linear", refine=2, interpolant="linear", error_budget_db=None)
     (data, dx1, dy1), = seen[1]
     (fine, dx2, dy2), = seen[2]
     assert (dx1, dy1) == (DX, DX) and (dx2, dy2) == (DX / 2, DX / 2)
     assert data.shape == (2, 6, 64) and fine.shape == (2, 12, 128)
     np.testing.assert_array_equal(fine[:, ::2, ::2], data)
-    np.testing.assert_array_equal(fine, refine_periodic_surface(data, 2, 2))
-    np.testing.assert_array_equal(seen[3][0][0], refine_periodic_surface(data, 2, 2, "pchip"))
+    np.testing.assert_array_equal(fine, refine_periodic_surface(data, 2, 2, "pchip"))
+    np.testing.assert_array_equal(seen[3][0][0], refine_periodic_surface(data, 2, 2, "linear"))
     assert not np.array_equal(seen[3][0][0], fine)
 
 

@@ -21,7 +21,7 @@ from roadtex._checks import (
 from roadtex._core import __version__
 from roadtex.budget import DEFAULT_ERROR_BUDGET_DB
 from roadtex.errors import InvalidInputError
-from roadtex.models.grid import check_interpolant, check_refine
+from roadtex.models.grid import DEFAULT_INTERPOLANT, check_interpolant, check_refine
 from roadtex.profiles.mpd import estimated_texture_depth
 from roadtex.profiles.readers import READ_OPTIONS
 from roadtex.profiles.units import unit_factor
@@ -100,8 +100,9 @@ class ProcessingOptions:
             than the data's (every ``dx / k``), the readings joined by ``interpolant``
             (:mod:`roadtex.models.grid`); texture levels stay those of the data. None (the
             default): chosen by the error budget (1 without one). 1: the data's own grid.
-        interpolant: the continuous road between readings, ``"linear"`` (default), ``"pchip"`` or
-            ``"bandlimited"`` (:data:`roadtex.models.grid.INTERPOLANTS`).
+        interpolant: the continuous road between readings, ``"pchip"`` (monotone cubic, the
+            default since 0.5.0), ``"linear"`` or ``"bandlimited"``
+            (:data:`roadtex.models.grid.INTERPOLANTS`); the pilots solve the same road.
         sampling_correction: subtract from the enveloped levels the bias the run's sampling causes
             where the calibration on real fine data shows a systematic one (e.g. -1.4 dB at 2.5 mm for
             1 mm data, E = 2 MPa; :mod:`roadtex.budget.sampling`); bands.parquet states the correction
@@ -143,7 +144,7 @@ class ProcessingOptions:
     error_budget_db: float | None = DEFAULT_ERROR_BUDGET_DB
     tol: float | None = None
     refine: int | None = None
-    interpolant: str = "linear"
+    interpolant: str = DEFAULT_INTERPOLANT
     sampling_correction: bool = False
     max_iterations: int = 2000
     band_kind: str = "third_octave"

@@ -13,7 +13,7 @@ How a surface run is cut and solved (documented choices):
 - Areal band levels are taken along those rows of each tile's enveloped surface (and of its
   pressure map): ``bands.parquet`` holds one row per (model, segment, line, modulus, band).
 - The surface is solved on a *model grid* ``k`` times finer than its own spacings ``dx``, ``dy``
-  each way (the readings joined by ``options.interpolant``, bilinear by default:
+  each way (the readings joined by ``options.interpolant``, monotone cubics each way by default:
   :func:`roadtex.models.grid.refine_periodic_surface`; the line model's rows ``k`` times finer
   along). With an error budget, an areal pilot on a few of its tiles (:mod:`roadtex.budget.areal`;
   the job's pilot is of line runs) chooses ``k`` (unless ``options.refine`` forces it) and its

@@ -1,8 +1,9 @@
 """The numerical error of a surface run's levels: an areal pilot on a few of its tiles.
 
 A surface run (3D texture) is solved on a *model grid* ``k`` times finer than the data's along and
-across the road (the readings joined bilinearly by default, :func:`roadtex.models.grid.refine_periodic_surface`),
-with the areal model on tiles and with the line model (refined ``k`` times along) on rows of the
+across the road (the readings joined by the job's interpolant, monotone cubics each way by default,
+:func:`roadtex.models.grid.refine_periodic_surface`), with the areal model on tiles and with the line
+model (refined ``k`` times along) on rows of the
 same tiles (see :mod:`roadtex.archive.surface_run`). Its levels get error estimates the way a line
 run's do (:mod:`roadtex.budget.study`), and its ``k`` and solver tolerance are chosen as cheap as the
 budget allows, from a few *pilot* tiles spread evenly along the run:
@@ -60,7 +61,14 @@ import numpy as np
 
 from roadtex.budget.study import REFERENCE_TOL, SPREAD_FACTOR, contact_levels, difference, extreme, solver_work
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import Interpolant, check_interpolant, check_refine, refine_periodic, refine_periodic_surface
+from roadtex.models.grid import (
+    DEFAULT_INTERPOLANT,
+    Interpolant,
+    check_interpolant,
+    check_refine,
+    refine_periodic,
+    refine_periodic_surface,
+)
 from roadtex.models.surface import contact_surface_many
 from roadtex.spectra.bands import BandKind
 from roadtex.spectra.levels import Method
@@ -227,7 +235,7 @@ class _Setup:
     method: Method
     max_iterations: int
     threads: int | None
-    interpolant: Interpolant = "linear"
+    interpolant: Interpolant = DEFAULT_INTERPOLANT
 
 
 def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float, refine: int,
@@ -285,7 +293,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
                          tols: Sequence[float], budget_db: float, band_kind: BandKind, band_method: Method,
                          max_iterations: int, threads: int | None,
                          pilot_tiles: tuple[int, ...] = (), window_factor: float = 1.0,
-                         refine: int | None = None, interpolant: Interpolant = "linear",
+                         refine: int | None = None, interpolant: Interpolant = DEFAULT_INTERPOLANT,
                          tile_points: int | None = None) -> SurfaceErrors:
     """Error estimates of a surface run's levels from its pilot tiles, at the cheapest model grid
     and the loosest tolerance that need no more (see the module).

@@ -40,7 +40,7 @@ from roadtex.budget.study import (
     segments_of,
     solve_levels,
 )
-from roadtex.models.grid import check_refine
+from roadtex.models.grid import DEFAULT_INTERPOLANT, check_refine
 from roadtex.profiles.profile import Profile
 
 
@@ -68,7 +68,7 @@ class BudgetChoice:
         study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
         reference_refine: K, the refinement of the pilot's reference (its converged answer).
         interpolant_spread_db: band number -> the largest difference (dB) between the converged
-            enveloped and pressure levels of the linear road and those of the other interpolants:
+            enveloped and pressure levels of the job's road and those of the other interpolants:
             what the data's sampling cannot tell (not a numerical error); empty when not measured.
     """
 
@@ -152,7 +152,8 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                    tol_candidates: Sequence[float] | None = None, max_iterations: int = 2000,
                    threads: int | None = None, include_reference_error: bool = True,
                    refine_candidates: Sequence[int] | None = None, interpolants: bool = True,
-                   band_method: str = "dft", group_scale: float = 1.0) -> BudgetChoice:
+                   band_method: str = "dft", group_scale: float = 1.0,
+                   interpolant: str = DEFAULT_INTERPOLANT) -> BudgetChoice:
     """The cheapest (dx, k, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
 
     Args:
@@ -179,6 +180,9 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
             in 34 of 256 rows of a filter-method job).
         group_scale: how many times the rows of the pilot's runs the group it speaks for holds (the
             job's group of many runs: its errors are extrapolated to the largest of that many rows).
+        interpolant: the job's road between readings (``--interpolant``,
+            :data:`roadtex.models.grid.INTERPOLANTS`): every pilot solve joins the readings so, so
+            that the errors stated are those of the levels the job computes.
 
     Returns:
         A :class:`BudgetChoice`.
@@ -198,7 +202,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
                         include_reference_error=include_reference_error, budget_db=budget, interpolants=interpolants,
-                        band_method=band_method, group_scale=group_scale)
+                        band_method=band_method, group_scale=group_scale, interpolant=interpolant)
     dxs = [forced_dx_f] if forced_dx_f is not None else dxs_given
     refines = [forced_refine_k] if forced_refine_k is not None else refines_given
     if forced_dx_f is not None and refines is None:   # a forced interval refined up to the reference's model grid

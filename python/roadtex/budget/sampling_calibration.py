@@ -9,7 +9,8 @@ conditioning: plates trimmed, spikes removed, seamless segments) are
 - *averaged* to a coarser sampling ``dx``: each reading the mean of the fine road (the fine
   readings joined linearly) over a window of ``width`` centred on it (``width = dx``: interval
   averaging, what ISO 13473-1's resampling does; a smaller ``width`` at a coarser ``dx``: a laser
-  spot of that width, sampled every ``dx``), then solved on the coarse readings joined linearly and
+  spot of that width, sampled every ``dx``), then solved on the coarse readings joined as the job
+  joins them (:data:`roadtex.models.grid.DEFAULT_INTERPOLANT`, monotone cubics since 0.5.0) and
   refined until the model dx is at most :data:`MODEL_DX` (converged);
 
 and the difference coarse - fine of their enveloped and pressure band levels is recorded, per
@@ -31,7 +32,7 @@ import polars as pl
 from roadtex.budget.noise import budget_bands
 from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import refine_periodic
+from roadtex.models.grid import DEFAULT_INTERPOLANT, Interpolant, refine_periodic
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.readers import read_profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -107,10 +108,11 @@ def fine_segments(path: str | Path, segment_length: float = 0.5, step: float = 0
 
 
 def solved_levels(heights: np.ndarray, dx: float, refine: int, moduli: np.ndarray, mean_pressure: float,
-                  bands: Sequence[int]) -> np.ndarray:
+                  bands: Sequence[int], interpolant: Interpolant = "linear") -> np.ndarray:
     """Enveloped and pressure levels (2, rows, moduli, bands) in dB of periodic segments (rows, N;
-    m, every ``dx``) solved on the linear road refined ``refine`` times, in the band numbers ``bands``."""
-    model = refine_periodic(heights, refine, "linear")
+    m, every ``dx``) solved on the road through them (``interpolant``) refined ``refine`` times, in
+    the band numbers ``bands``."""
+    model = refine_periodic(heights, refine, interpolant)
     model_dx = dx / refine
     batch = contact_many(model, model_dx, moduli, mean_pressure, tol=CALIBRATION_TOL, warm_start=True,
                          raise_on_nonconvergence=True)
@@ -145,7 +147,7 @@ def file_differences(path: str | Path, *, samplings: Sequence[tuple[float, float
         coarse = periodic_average(heights, dx, points, width)
         step_dx = length / points
         refine = max(1, math.ceil(step_dx / MODEL_DX * (1.0 - 1e-9)))
-        levels = solved_levels(coarse, step_dx, refine, moduli, mean_pressure, bands)
+        levels = solved_levels(coarse, step_dx, refine, moduli, mean_pressure, bands, DEFAULT_INTERPOLANT)
         diff = levels - fine
         rows = heights.shape[0] * moduli.size * len(bands)
         frames.append(pl.DataFrame({

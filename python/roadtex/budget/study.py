@@ -2,7 +2,8 @@
 
 The engine of the error budget (:func:`roadtex.budget.choose_setting`) and its public face,
 :func:`convergence_study`. A setting is (dx, k, tol): the run conditioned at the data interval dx,
-its segments joined into a continuous road by linear interpolation and solved on a model grid k
+its segments joined into a continuous road (the job's interpolant, monotone cubic by default: see
+:mod:`roadtex.models.grid`) and solved on a model grid k
 times finer (dx / k, :mod:`roadtex.models.grid`), at solver tolerance tol. For a run (or a group
 of runs of the same device and pavement):
 
@@ -36,8 +37,9 @@ of runs of the same device and pavement):
      reference's own error (step 2).
 
 5. **What the sampling cannot tell** (:func:`interpolant_spread`): the reference grid solved again
-   on the monotone cubic road through the same readings; the largest difference of its converged
-   levels from the linear road's, spread to the run as in 4 (the band-limited road is left out:
+   on the other shape-preserving road through the same readings (the linear road for the default
+   monotone cubic); the largest difference of its converged levels from the job's road's, spread to
+   the run as in 4 (the band-limited road is left out:
    see :data:`SPREAD_INTERPOLANTS`). It is the data's
    resolution, not the solver's error, and is stated apart from it.
 
@@ -77,7 +79,7 @@ from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
 from roadtex.budget.sizes import five_smooth_ladder
 from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import Interpolant, refine_periodic
+from roadtex.models.grid import DEFAULT_INTERPOLANT, Interpolant, check_interpolant, refine_periodic
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.coverage import MAX_MISSING_SHARE, missing_shares, too_few_readings
 from roadtex.profiles.profile import Profile
@@ -153,6 +155,7 @@ class Pilot:
     sequence: dict[int, tuple[np.ndarray, float, float]] = dataclasses.field(default_factory=dict)
     interpolant_spread: np.ndarray | None = None   # (bands,) what the sampling cannot tell (dB)
     band_method: Method = "dft"      # how the job computes band levels: the pilot's levels the same way
+    interpolant: Interpolant = DEFAULT_INTERPOLANT   # the job's road between readings: the pilot solves the same
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -241,12 +244,12 @@ def solver_work(iterations: np.ndarray, points: int) -> float:
 
 
 def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refine: int = 1,
-                 interpolant: Interpolant = "linear") -> tuple[np.ndarray, np.ndarray, float, float]:
+                 interpolant: Interpolant | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Enveloped and pressure levels (2, rows, bands) of ``heights`` (sampled every ``dx``) solved on
-    a model grid ``refine`` times finer at ``tol``, reported flags, seconds, and the work
-    (:func:`solver_work`)."""
+    a model grid ``refine`` times finer at ``tol`` (the readings joined by ``interpolant``, by default
+    the job's, ``pilot.interpolant``), reported flags, seconds, and the work (:func:`solver_work`)."""
     start = time.perf_counter()
-    model = refine_periodic(heights, refine, interpolant)
+    model = refine_periodic(heights, refine, pilot.interpolant if interpolant is None else interpolant)
     batch = contact_many(model, dx / refine, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
                          max_iterations=pilot.max_iterations, threads=pilot.threads, warm_start=True,
                          raise_on_nonconvergence=False)
@@ -261,8 +264,10 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                 band_kind: str, spike_alpha: float | None, max_iterations: int,
                 threads: int | None, include_reference_error: bool = True,
                 budget_db: float = DEFAULT_ERROR_BUDGET_DB, max_refine: int = MAX_REFINE,
-                interpolants: bool = True, band_method: str = "dft", group_scale: float = 1.0) -> Pilot:
+                interpolants: bool = True, band_method: str = "dft", group_scale: float = 1.0,
+                interpolant: str = DEFAULT_INTERPOLANT) -> Pilot:
     """The reference side of a study (module docstring, steps 1, 2 and 5): ``max_refine`` caps K;
+    ``interpolant``: the job's road between readings (every pilot solve joins the readings so);
     ``group_scale``: how many times the pilot's runs' rows the group it speaks for holds (its
     errors are extrapolated to the largest of that many rows);
     ``interpolants`` False skips step 5; ``include_reference_error`` False solves the data's own
@@ -280,6 +285,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     if band_method not in ("dft", "filter"):
         raise InvalidInputError(f"band_method must be 'dft' or 'filter', got {band_method!r}")
     method: Method = "filter" if band_method == "filter" else "dft"
+    road = check_interpolant(interpolant)
     cleaned = cleaned_profiles(profiles, spike_alpha)
     heights, starts, dx = segments_of(cleaned, None, length)
     texture = band_levels(heights, dx, kind=kind, periodic=True, method=method)
@@ -293,7 +299,8 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                   length, kind, whole_number(max_iterations, "max_iterations", 1), threads, dx,
                   heights.shape[1], bands, [starts[i] for i in chosen],
                   int(np.ceil(heights.shape[0] * moduli.size * max(float(group_scale), 1.0))),
-                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method)
+                  texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method,
+                  interpolant=road)
     pilot_heights = heights[chosen]
     metres = chosen.size * length
 
@@ -326,12 +333,19 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     return pilot
 
 
-#: The roads through the readings whose converged levels the spread compares with the linear
-#: road's: the shape-preserving ones. The band-limited road is measured (benches/model_grid.py) but
-#: left out: it rings at sharp stone tops, adding up to 10 dB at 0.5 mm in the short bands, while real
-#: fine data averaged to 0.5 mm differ from their own fine solve by about 1 dB per segment (the
-#: sampling calibration on CAPTIF, :mod:`roadtex.budget.sampling`): not a road the samples allow.
-SPREAD_INTERPOLANTS: tuple[str, ...] = ("pchip",)
+#: The roads through the readings whose converged levels the spread compares (each with the job's
+#: own, :func:`spread_interpolants`): the shape-preserving ones. The band-limited road is measured
+#: (benches/model_grid.py) but left out: it rings at sharp stone tops, adding up to 10 dB at 0.5 mm
+#: in the short bands, while real fine data averaged to 0.5 mm differ from their own fine solve by
+#: about 1 dB per segment (the sampling calibration on CAPTIF, :mod:`roadtex.budget.sampling`): not a
+#: road the samples allow.
+SPREAD_INTERPOLANTS: tuple[str, ...] = ("pchip", "linear")
+
+
+def spread_interpolants(interpolant: str) -> tuple[str, ...]:
+    """The roads a job joining its readings by ``interpolant`` is compared with for the spread: the
+    shape-preserving ones (:data:`SPREAD_INTERPOLANTS`) other than its own."""
+    return tuple(other for other in SPREAD_INTERPOLANTS if other != interpolant)
 
 
 #: Largest model grid (points a segment) the interpolants' spread is solved on (issue 39): below
@@ -343,17 +357,18 @@ SPREAD_MAX_POINTS = 2 ** 15
 
 def interpolant_spread(pilot: Pilot, heights: np.ndarray) -> np.ndarray:
     """The largest difference (dB, per band) between the converged enveloped and pressure levels of
-    the linear road and those of the monotone cubic road through the same readings
-    (:data:`SPREAD_INTERPOLANTS`), on the finest grid of the reference's sequence within
-    :data:`SPREAD_MAX_POINTS` (the reference's own where it fits), spread to the run's rows as the
-    errors are: what the data's sampling cannot tell about the road between its readings."""
+    the job's road (``pilot.interpolant``) and those of the other shape-preserving roads through the
+    same readings (:func:`spread_interpolants`: the linear road for the default monotone cubic), on
+    the finest grid of the reference's sequence within :data:`SPREAD_MAX_POINTS` (the reference's own
+    where it fits), spread to the run's rows as the errors are: what the data's sampling cannot tell
+    about the road between its readings."""
     fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
     k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
-    linear = pilot.sequence[k][0]
+    own = pilot.sequence[k][0]
     spread = np.zeros(pilot.bands.height)
-    for interpolant in SPREAD_INTERPOLANTS:
+    for interpolant in spread_interpolants(pilot.interpolant):
         levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, REFERENCE_TOL, k, interpolant)  # type: ignore[arg-type]
-        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, linear), 1, 0), pilot.run_rows).max(axis=0))
+        spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, own), 1, 0), pilot.run_rows).max(axis=0))
     return spread
 
 
@@ -463,7 +478,8 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
                       spike_alpha: float | None = None, max_iterations: int = 2000,
                       threads: int | None = None, include_reference_error: bool = True,
                       refine_candidates: Sequence[int] | None = None,
-                      budget_db: float = DEFAULT_ERROR_BUDGET_DB, band_method: str = "dft") -> pl.DataFrame:
+                      budget_db: float = DEFAULT_ERROR_BUDGET_DB, band_method: str = "dft",
+                      interpolant: str = DEFAULT_INTERPOLANT) -> pl.DataFrame:
     """The pilot's table: the estimated level error and the cost of every (dx, k, tol) candidate.
 
     Args:
@@ -488,6 +504,8 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
             refined 2, 3, 4, 6, ... times up to the reference's).
         budget_db: the budget (dB) the reference converges to a quarter of.
         band_method: "dft" (default) or "filter": how the levels are computed (the job's ``--band-method``).
+        interpolant: the road between readings on the model grids (the job's ``--interpolant``,
+            :data:`roadtex.models.grid.INTERPOLANTS`).
 
     Returns:
         A polars table, one row per (dx, k, tol, band) for the bands reported at the file's dx:
@@ -508,7 +526,7 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
                         include_reference_error=include_reference_error, budget_db=budget_db, interpolants=False,
-                        band_method=band_method)
+                        band_method=band_method, interpolant=interpolant)
     refines = None if refine_candidates is None else [whole_number(k, "refine_candidates", 1) for k in refine_candidates]
     settings = default_settings(pilot, check_candidates(dx_candidates, "dx_candidates"), refines)
     tols = check_candidates(tol_candidates, "tol_candidates") or list(DEFAULT_TOLERANCES)
