@@ -153,7 +153,9 @@ def test_the_shipped_calibration_holds_the_samplings_and_the_one_millimetre_bias
     assert set(table["youngs_modulus"].to_list()) == {1e6, 2e6, 5e6, 1e7}
     short = table.filter((pl.col("level") == "enveloped") & (pl.col("dx") == 1e-3) & (pl.col("width") == 1e-3)
                          & (pl.col("label") == "2.5") & (pl.col("youngs_modulus") == 2e6))
-    assert short["bias_db"][0] < -0.9   # the 1 mm data's systematic bias at 2.5 mm (issue 33: -1.2 dB)
+    # the 1 mm data's systematic bias at 2.5 mm (issue 33: -1.2 dB; -1.41 on the linear road of 0.4,
+    # -0.91 on the monotone cubic road since 0.5.0): clearly more than the 0.05 mm data's
+    assert short["bias_db"][0] < -0.5
 
 
 def test_leave_one_out_on_captif_covers_the_run_mean_difference(captif_dir: Path) -> None:

@@ -42,7 +42,7 @@ def test_job_states_the_sampling_apart_from_the_numerical_error(coarse_job) -> N
     assert stated["sampling_correction_db"].null_count() == stated.height   # not corrected
     assert (stated["sampling_uncertainty_db"] >= stated["sampling_run_uncertainty_db"]).all()
     short = stated.filter((pl.col("label") == "2.5") & (pl.col("youngs_modulus") == 2e6))
-    assert short["sampling_bias_db"][0] < -0.9
+    assert short["sampling_bias_db"][0] < -0.5   # the calibration's systematic 1 mm bias (-0.91 dB since 0.5.0)
     assert runs["sampling_dx"][0] == pytest.approx(1e-3)
     # 1 mm data do not resolve the 2.5 mm band for contact: the run states a longer wavelength, or
     # none (three calibration files cannot state any band of 1 mm data within 1 dB at every E)

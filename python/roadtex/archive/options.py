@@ -104,7 +104,7 @@ class ProcessingOptions:
             default since 0.5.0), ``"linear"`` or ``"bandlimited"``
             (:data:`roadtex.models.grid.INTERPOLANTS`); the pilots solve the same road.
         sampling_correction: subtract from the enveloped levels the bias the run's sampling causes
-            where the calibration on real fine data shows a systematic one (e.g. -1.4 dB at 2.5 mm for
+            where the calibration on real fine data shows a systematic one (e.g. -0.9 dB at 2.5 mm for
             1 mm data, E = 2 MPa; :mod:`roadtex.budget.sampling`); bands.parquet states the correction
             and its uncertainty. Off by default: the levels are then the model's on the data as read.
         max_iterations: solver iteration cap; segments that do not converge are kept and flagged.
