@@ -24,7 +24,7 @@ budget allows, from a few *pilot* tiles spread evenly along the run:
    against ``2 k``. A rung whose model grid of a whole tile would exceed :data:`MAX_MODEL_POINTS`
    is not chosen (it still serves as the reference).
 3. **Tolerance**: the tiles solved at the chosen ``k`` at each candidate tolerance, loosest first
-   (1e-4, 1e-6, 1e-8, 1e-10; only the given one when the job's tol was given); the difference from
+   (1e-3, 1e-4, 1e-6, 1e-8, 1e-10; only the given one when the job's tol was given); the difference from
    the reference at that ``k``. The first candidate within the budget is the run's.
 4. **Estimate** per (model, band): the differences of the pilot rows extended to every row of the
    run (:func:`roadtex.budget.study.extreme`), the tolerance's times ``SPREAD_FACTOR``, plus the

@@ -494,7 +494,7 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
         segment_length: length of the job's segments (m).
         dx_candidates: sampling intervals to try (m); None: the file's, then segment_length / N for
             5-smooth N (FFT-friendly), about 1.2 times coarser each, down to 0.5 mm.
-        tol_candidates: solver tolerances to try; None: 1e-4, 1e-6, 1e-8, 1e-10.
+        tol_candidates: solver tolerances to try; None: 1e-3, 1e-4, 1e-6, 1e-8, 1e-10.
         n_segments: pilot segments, spread evenly along the run(s).
         band_kind: "third_octave" or "octave".
         spike_alpha: the job's spike criterion for conditioning (None: none).
