@@ -8,12 +8,13 @@ and (issue 39) one at 1 mm, the three CAPTIF files averaged to 1 mm and CAPTIF a
 
 Per archive it also prints stated / actual (median and least over the budget bands) and the chosen k
 against the smallest k within the budget on the checked runs (the rungs of REFINE_LADDER below the
-chosen one solved here at the chosen tol, the job's road, built in the bench).
+chosen one solved here at the chosen tol, on the job's road).
 
 For each archive and job: wall time (pilot included, and the pilot alone), the model grid chosen
 (dx, k, tol), and per budget band the stated error (bands.parquet ``level_error_db``) against the
 actual worst |level - level at k = 32| over every segment, modulus and level kind of --check-runs
-runs (solved here independently: the job's road built with numpy or scipy, tol 1e-10), and the interpolant
+runs (solved here independently at tol 1e-10 on the job's road, ``refine_periodic``, which
+test_model_grid.py checks against numpy's and scipy's interpolation), and the interpolant
 spread (what the sampling cannot tell). A benchmark: it prints, it never fails on a number.
 """
 
@@ -28,29 +29,16 @@ from pathlib import Path
 
 import numpy as np
 import polars as pl
-from scipy.interpolate import PchipInterpolator
 
 import roadtex
 from roadtex.archive import ProcessingOptions, process
 from roadtex.budget.study import REFINE_LADDER
 from roadtex.demo import write_synthetic_archive
+from roadtex.models.grid import refine_periodic
 from roadtex.profiles.writer import write_profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE
 
 TRUTH_REFINE = 32
-
-
-def job_road(heights: np.ndarray, refine: int, interpolant: str) -> np.ndarray:
-    """The job's road through periodic rows of readings, built here apart from roadtex.models.grid:
-    numpy's linear interpolation, or scipy's monotone cubic through three periods of readings."""
-    n = heights.shape[1]
-    fine = np.arange(n * refine) / refine
-    if interpolant == "linear":
-        return np.array([np.interp(fine, np.arange(n + 1), np.append(row, row[0])) for row in heights])
-    if interpolant != "pchip":
-        raise ValueError(f"the bench builds the linear and pchip roads, not {interpolant!r}")
-    curve = PchipInterpolator(np.arange(-n, 2 * n, dtype=np.float64), np.concatenate([heights] * 3, axis=-1), axis=-1)
-    return curve(fine)
 
 
 def truth_levels(path: str, dx: float, options: ProcessingOptions, refine: int = TRUTH_REFINE,
@@ -60,7 +48,7 @@ def truth_levels(path: str, dx: float, options: ProcessingOptions, refine: int =
     cleaned, _ = roadtex.profiles.conditioning.clean(profile, spike_alpha=options.spike_alpha, warn=False)
     segments = cleaned.finished(dx=dx).segments(options.segment_length)
     moduli = np.asarray(options.youngs_moduli)
-    fine = job_road(segments.heights, refine, options.interpolant)
+    fine = refine_periodic(segments.heights, refine, options.interpolant)  # type: ignore[arg-type]
     batch = roadtex.contact_many(fine, segments.dx / refine, moduli, options.mean_pressure, tol=tol,
                                  warm_start=True, raise_on_nonconvergence=False)
     n = fine.shape[0] * moduli.size

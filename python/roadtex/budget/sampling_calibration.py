@@ -108,7 +108,7 @@ def fine_segments(path: str | Path, segment_length: float = 0.5, step: float = 0
 
 
 def solved_levels(heights: np.ndarray, dx: float, refine: int, moduli: np.ndarray, mean_pressure: float,
-                  bands: Sequence[int], interpolant: Interpolant = "linear") -> np.ndarray:
+                  bands: Sequence[int], interpolant: Interpolant) -> np.ndarray:
     """Enveloped and pressure levels (2, rows, moduli, bands) in dB of periodic segments (rows, N;
     m, every ``dx``) solved on the road through them (``interpolant``) refined ``refine`` times, in
     the band numbers ``bands``."""
@@ -140,7 +140,7 @@ def file_differences(path: str | Path, *, samplings: Sequence[tuple[float, float
     moduli = np.asarray(youngs_moduli, dtype=np.float64)
     table = budget_bands(dx, length)
     bands = table["band"].to_list()
-    fine = solved_levels(heights, dx, FINE_REFINE, moduli, mean_pressure, bands)
+    fine = solved_levels(heights, dx, FINE_REFINE, moduli, mean_pressure, bands, "linear")   # the fine data's own road
     frames = []
     for coarse_dx, width in samplings:
         points = int(round(length / coarse_dx))
