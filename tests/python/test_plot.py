@@ -80,9 +80,13 @@ def test_band_levels_average_in_power_and_show_the_stated_errors() -> None:
     line, _, (bars,) = containers["E = 2 MPa"]
     # the energetic mean of 35 and 37 dB
     assert line.get_ydata()[0] == pytest.approx(10 * np.log10((10 ** 3.5 + 10 ** 3.7) / 2))
-    # the error bar spans the largest stated error of the rows averaged (0.15 dB)
+    # the error bar is the mean's: the energetic mean of the rows each raised by its own stated error
+    # (35 dB by 0.05, 37 dB by 0.15), less the mean; between the smallest and the largest row error
     segment = bars.get_segments()[0]
-    assert segment[1][1] - segment[0][1] == pytest.approx(2 * 0.15)
+    mean = 10 * np.log10((10 ** 3.5 + 10 ** 3.7) / 2)
+    raised = 10 * np.log10((10 ** ((35 + 0.05) / 10) + 10 ** ((37 + 0.15) / 10)) / 2)
+    assert segment[1][1] - segment[0][1] == pytest.approx(2 * (raised - mean))
+    assert 0.05 < raised - mean < 0.15
     original = containers["original"][0].get_ydata()[0]
     assert original == pytest.approx(10 * np.log10((10 ** 4.0 + 10 ** 4.6) / 2))
     difference = {c.get_label(): c[0].get_ydata()[0] for c in bottom.containers}

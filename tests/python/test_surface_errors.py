@@ -270,10 +270,14 @@ def test_each_models_estimates_reach_its_own_rows_and_only_budget_bands_count(tm
     path = tmp_path / "level_errors.parquet"
     table.write_parquet(path)
     own = surface_estimates([path], budget_db=15.0)
+    # the surface's line rows as quiet as can be: its own areal pilot's errors are not scaled
     rows = pl.DataFrame({"run_id": ["s"] * 6, "model": ["line"] * 3 + ["areal"] * 3, "band": [20, 21, 30] * 2,
+                         "youngs_modulus": [2e6] * 6, "reported": [True] * 6,
+                         "enveloped_level": [60.0, 0.0, 60.0] * 2, "pressure_level": [120.0, 60.0, 120.0] * 2,
                          "level_error_db": [None] * 6}, schema_overrides={"level_error_db": pl.Float64})
     empty = (pl.DataFrame(schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
-                                  "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean}),
+                                  "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean,
+                                  "typical_over": pl.String}),
              pl.DataFrame(schema={"run_id": pl.String, "worst_level_error_db": pl.Float64, "within_budget": pl.Boolean,
                                   "line_speedup": pl.Float64, "error_source": pl.String}))
     bands = with_plan(rows.lazy(), "bands", empty, ["s"], own).collect()

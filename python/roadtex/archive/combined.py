@@ -37,6 +37,7 @@ from roadtex.archive.schemas import (
     units,
 )
 from roadtex.archive.store import checksums, file_sha256, read_status, write_atomically, write_json
+from roadtex.budget.estimate import BELOW_TYPICAL_EXPONENT
 
 #: Tables of some runs only (line runs: sections; surface runs: areal parameters), combined from those that have them.
 SECTION_TABLES = {"sections": SECTION_SCHEMA, "section_bands": SECTION_BAND_SCHEMA, "areal": AREAL_SCHEMA}
@@ -202,24 +203,30 @@ def kept_edge_effect(out: Path, plan: JobPlan) -> Path:
 
 def run_estimates(plan: JobPlan, entries: dict[str, RunPlan]) -> tuple[pl.DataFrame, pl.DataFrame]:
     """Each line run's error estimates from its plan entry (its group's pilot, or the largest of any
-    group where none covered it): per (run, band) ``level_error_db``, ``interpolant_spread_db`` and
-    ``sampling_limited``; per run ``worst_level_error_db``, ``within_budget``, ``speedup`` and
+    group where none covered it): per (run, band) ``level_error_db`` (the group's, for a level at its
+    typical band level: :func:`with_plan` scales it per row), ``interpolant_spread_db``,
+    ``sampling_limited`` and ``typical_over`` (the rows whose median is the typical level: the run's
+    pilot group, or the run itself); per run ``worst_level_error_db``, ``within_budget``, ``speedup`` and
     ``error_source``. Surface runs have their own areal pilot's (:func:`surface_estimates`)."""
-    band_rows: list[tuple[str, int, float, float | None, bool | None]] = []
+    band_rows: list[tuple[str, int, float, float | None, bool | None, str]] = []
     run_rows: list[tuple[str, float | None, bool | None, float | None, str | None]] = []
     budget = plan.budget_db
     for run_id, entry in entries.items():
         if entry.kind != "line":
             continue
         errors, spread, worst, within = plan.band_errors(entry)
+        # the rows whose median level a row's statement is scaled from: its pilot group's (its own run's
+        # where no pilot covered it)
+        typical_over = entry.group or run_id
         band_rows += [(run_id, band, error, spread.get(band), None if band not in spread or budget is None
-                       else bool(spread[band] > budget))
+                       else bool(spread[band] > budget), typical_over)
                       for band, error in errors.items() if np.isfinite(error)]
         pilot = next((p for p in plan.pilots if p.name == entry.group), None)
         speedup = pilot.work_speedup if pilot is not None and np.isfinite(pilot.work_speedup) else plan.work_speedup
         run_rows.append((run_id, worst, within, speedup if budget is not None else None, entry.error_source))
     bands = pl.DataFrame(band_rows, schema={"run_id": pl.String, "band": pl.Int64, "level_error_db": pl.Float64,
-                                            "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean},
+                                            "interpolant_spread_db": pl.Float64, "sampling_limited": pl.Boolean,
+                                            "typical_over": pl.String},
                          orient="row")
     runs = pl.DataFrame(run_rows, schema={"run_id": pl.String, "worst_level_error_db": pl.Float64,
                                           "within_budget": pl.Boolean, "line_speedup": pl.Float64,
@@ -245,6 +252,20 @@ def surface_estimates(files: list[Path], budget_db: float | None) -> tuple[pl.Da
     return bands.cast(bands_schema), runs.select(list(runs_schema)).cast(runs_schema)  # type: ignore[arg-type]
 
 
+def below_typical(rows: pl.Expr) -> pl.Expr:
+    """Per row of ``rows`` (line runs' rows with a group statement), the factor on its group's stated
+    error (:func:`roadtex.budget.estimate.below_typical_factor`): the larger of its enveloped and
+    pressure levels' 10^(0.5 (median - level) / 10), the median over the reported rows of its group
+    (``typical_over``), band and modulus; 1 at or above the median and where a level is not finite."""
+    factors = []
+    for level in ("enveloped_level", "pressure_level"):
+        finite = rows & pl.col("reported") & pl.col(level).is_finite()
+        typical = pl.col(level).filter(finite).median().over("typical_over", "band", "youngs_modulus")
+        below = typical - pl.col(level)
+        factors.append(pl.when(finite & (below > 0.0)).then(10.0 ** (BELOW_TYPICAL_EXPONENT * below / 10.0)))
+    return pl.max_horizontal(pl.lit(1.0), *factors)
+
+
 def with_plan(query: pl.LazyFrame, name: str, estimates: tuple[pl.DataFrame, pl.DataFrame],
               surface_ids: Sequence[str] = (),
               surface_own: tuple[pl.DataFrame, pl.DataFrame] | None = None) -> pl.LazyFrame:
@@ -261,9 +282,11 @@ def with_plan(query: pl.LazyFrame, name: str, estimates: tuple[pl.DataFrame, pl.
                   .join(own_bands.lazy(), on=["run_id", "model", "band"], how="left", maintain_order="left"))
         # the line pilot measures the line model of line runs only
         line_only = surface | (pl.col("model") == "areal")
+        stated_rows = ~line_only & pl.col("level_error_db").is_not_null()
         return joined.with_columns(pl.when(surface).then(pl.col("surface_error_db"))
                                    .when(pl.col("model") == "areal").then(None)
-                                   .otherwise(pl.col("level_error_db")).alias("level_error_db"),
+                                   .otherwise(pl.col("level_error_db") * below_typical(stated_rows))
+                                   .alias("level_error_db"),
                                    *[pl.when(line_only).then(None).otherwise(pl.col(c)).alias(c)
                                      for c in ("interpolant_spread_db", "sampling_limited")])
     if name == "runs":

@@ -100,8 +100,10 @@ BAND_COLUMNS: Columns = {
     "sampling_note": (pl.String(), None),         # why this row's sampling figures are null, or why a correction
                                                   # asked for was not made (line runs; null when stated as asked)
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of this row's levels
-                                                  # (line runs: their group's pilot; surface runs: their own
-                                                  # areal pilot, per model; null without budget)
+                                                  # (line runs: their group's pilot, times 10^(d / 20) for a row
+                                                  # whose level lies d dB below its group's median of that band
+                                                  # and modulus; surface runs: their own areal pilot, per model;
+                                                  # null without budget)
     "interpolant_spread_db": (pl.Float64(), "dB"),  # what the data's sampling cannot tell: the largest difference of
                                                   # the converged levels between interpolants of the readings
                                                   # (linear, monotone cubic, band-limited); null where not measured
@@ -142,8 +144,10 @@ RUN_COLUMNS: Columns = {
     "mpd_spike_rejected": (pl.Int64(), "count"),  # baselines rejected by ISO 13473-1's spike criterion (> 5 %)
     "mpd_dropout_rejected": (pl.Int64(), "count"),  # ... by its drop-out criterion (> 10 %); a baseline may fail both
     "mpd_rejections": (pl.String(), None),        # why, in words, with the failing shares (null: none rejected)
-    "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands; null without budget
-                                                   # (surface runs: both models, from their areal pilot)
+    "worst_level_error_db": (pl.Float64(), "dB"),  # estimated, in the tyre/road noise bands, for a level at its
+                                                   # group's median (line runs; bands.parquet states more for
+                                                   # levels below it); null without budget (surface runs: both
+                                                   # models, from their areal pilot)
     "within_budget": (pl.Boolean(), None),        # null without budget
     "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
                                                   # surface runs: tol 1e-10 against the job's, same spacings)

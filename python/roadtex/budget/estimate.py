@@ -47,6 +47,30 @@ PILOT_SPREAD_FACTOR = 1.7
 SPREAD_FACTOR = 2.0
 
 
+#: How a level's stated error grows where its band holds less power than is typical of its group:
+#: as the power's square root, the band's amplitude (a level L dB below the group's median level of
+#: that band and modulus states 10^(L / 20) times the group's error; at or above the median, the
+#: group's). A grid's error adds a field e to the band's signal s, and the level moves by about
+#: 8.7 |e| / |s| cos(angle) dB: for an error field of a given size the dB error grows as the
+#: amplitude falls (exponent 1/2 on power); an error proportional to the signal moves every level
+#: alike (exponent 0). Measured on every row of a 1 km archive at 0.5 mm against k = 32 (issue 39,
+#: benches/model_grid.py --check-runs 0): the 25 of 324,480 (row, kind) levels beyond their group's
+#: statement lay 2.8 to 15 dB below the median and needed exponents up to 0.32 (porous asphalt,
+#: 20 mm band); the group rule alone stated 0.68 times the actual at worst (dense asphalt, 31.5 mm).
+BELOW_TYPICAL_EXPONENT = 0.5
+
+
+def below_typical_factor(level_db: np.ndarray, typical_db: np.ndarray) -> np.ndarray:
+    """The factor (>= 1) on a group's stated error for a level ``level_db`` whose group's typical
+    (median) level of its band and modulus is ``typical_db`` (dB, broadcast): 10^(0.5 (typical -
+    level) / 10) below the median (:data:`BELOW_TYPICAL_EXPONENT`), 1 at or above it and where
+    either is not finite (a band without power: its level is not a number to scale by)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        below = np.asarray(typical_db, dtype=np.float64) - np.asarray(level_db, dtype=np.float64)
+        factor = 10.0 ** (BELOW_TYPICAL_EXPONENT * below / 10.0)
+    return np.where(np.isfinite(below) & (factor > 1.0), factor, 1.0)
+
+
 def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """|a - b| in dB, 0 where both are -inf (bands without power), inf where only one is."""
     with np.errstate(invalid="ignore"):

@@ -9,8 +9,8 @@ reference; the inputs are in SI units, as everywhere in roadtex.
 >>> fig, (height_ax, pressure_ax) = roadtex.plot.profile(z, 1e-5, envelope=r.envelope, pressure=r.pressure)
 """
 
-from roadtex.plot.levels import band_levels, speed_vs_error
+from roadtex.plot.levels import band_levels, mean_level_error, speed_vs_error
 from roadtex.plot.profiles import profile
 from roadtex.plot.surfaces import surface_map
 
-__all__ = ["profile", "band_levels", "surface_map", "speed_vs_error"]
+__all__ = ["profile", "band_levels", "mean_level_error", "surface_map", "speed_vs_error"]

@@ -18,6 +18,18 @@ def _energetic_mean(column: str) -> pl.Expr:
     return (10.0 * (10.0 ** (level / 10.0)).mean().log10()).alias(column)
 
 
+def mean_level_error(level: str, error: str) -> pl.Expr:
+    """The stated error (dB) of the energetic mean of ``level`` over the rows aggregated, from each
+    row's stated ``error`` (dB): 10 lg(sum P 10^(e / 10) / sum P), P = 10^(L / 10), over the rows with
+    a finite level and a stated error. Each row's power lies within 10^(+-e / 10) of its own, so the
+    mean's lies within this of the mean (the larger side): the rows' errors weighted by their power,
+    at most the largest of them. A level stated with a larger error because its band holds little
+    power (bands.parquet ``level_error_db``, below its group's typical level) weighs little in the mean."""
+    rows = pl.col(level).is_finite() & pl.col(error).is_not_null()
+    power = (10.0 ** (pl.col(level) / 10.0)).filter(rows)
+    return 10.0 * ((power * 10.0 ** (pl.col(error).filter(rows) / 10.0)).sum() / power.sum()).log10()
+
+
 def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", kind: str = "third_octave", ax=None):
     """Texture levels of the original and the enveloped profile per band, and their difference, with
     each level's stated numerical error as an error bar.
@@ -27,8 +39,8 @@ def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", k
             ``label``, ``texture_level`` and ``enveloped_level`` (dB re 1 µm), optionally
             ``youngs_modulus`` (Pa; one curve per E), ``reported`` (only reported rows are drawn) and
             the error column. Several rows of one band and E (segments, runs) are averaged in power.
-        errors: the column of the levels' stated numerical error (dB), drawn as error bars (the largest
-            over the rows averaged); None, a table without it or with no value in it: no error bars. A
+        errors: the column of the levels' stated numerical error (dB), drawn as error bars (that of
+            the rows' mean, :func:`mean_level_error`); None, a table without it or with no value in it: no error bars. A
             NaN or infinite error draws no bar, and the count of such rows is written on the axes;
             non-finite levels are left out of the band's mean.
         kind: "third_octave" or "octave", for the band axis' title.
@@ -50,7 +62,8 @@ def band_levels(bands: pl.DataFrame, *, errors: str | None = "level_error_db", k
         unstated = int((table[errors].is_not_null() & ~table[errors].is_finite()).sum())
         table = table.with_columns(pl.when(pl.col(errors).is_finite()).then(pl.col(errors)).alias(errors))
     with_errors = errors is not None and errors in table.columns and table[errors].is_not_null().any()
-    stated = [pl.col(errors).max().alias("error")] if with_errors else [pl.lit(0.0).alias("error")]
+    stated = ([mean_level_error("enveloped_level", errors).alias("error")] if with_errors
+              else [pl.lit(0.0).alias("error")])
     means = (table.group_by("youngs_modulus", "band").agg(pl.col("label").first(), _energetic_mean("texture_level"),
                                                            _energetic_mean("enveloped_level"), *stated)
              .sort("youngs_modulus", "band", nulls_last=True))

@@ -13,6 +13,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.errors import DamagedResultsError, InvalidInputError, ResultsNotFoundError
+from roadtex.plot.levels import mean_level_error
 
 # The figures' shared style is roadtex.plot's (one drawing code for the report and for users);
 # re-exported here for the report's modules.
@@ -89,12 +90,15 @@ def surface_run_ids(results: "Results") -> set[str]:
 
 
 def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None, runs: str = "all") -> dict[str, set[int]]:
-    """Per group (:meth:`Results.run_groups`), the bands whose stated numerical error
-    (bands.parquet ``level_error_db``) exceeds the job's error budget in any of the group's runs
-    of kind ``runs`` (:data:`RUN_KINDS`: a pavement's profile runs and its surface runs are solved
-    on different grids and state their errors apart, so a figure marks them apart): their levels
-    may be off by more than the budget, and every figure drawing them marks them. Empty without a
-    budget or without error estimates."""
+    """Per group (:meth:`Results.run_groups`), the bands whose group mean's stated numerical error
+    exceeds the job's error budget for some modulus, over the group's runs of kind ``runs``
+    (:data:`RUN_KINDS`: a pavement's profile runs and its surface runs are solved on different grids
+    and state their errors apart, so a figure marks them apart): the figures draw the group's mean
+    levels, which may then be off by more than the budget, and every figure drawing them marks them.
+    The mean's error comes from each level's (bands.parquet ``level_error_db``) weighted by its
+    power, the larger of the enveloped and pressure weights (:func:`roadtex.plot.levels.mean_level_error`):
+    a level stated with a larger error because its band holds little power in its segment moves the
+    mean little. Empty without a budget or without error estimates."""
     if runs not in RUN_KINDS:
         raise ValueError(f"runs must be one of {RUN_KINDS}, got {runs!r}")
     budget = results.options.get("error_budget_db")
@@ -105,9 +109,16 @@ def over_budget_bands(results: "Results", bands: pl.DataFrame | None = None, run
         surfaces = pl.Series(sorted(surface_run_ids(results)), dtype=pl.String).implode()
         inside = pl.col("run_id").cast(pl.String).is_in(surfaces)
         table = table.filter(inside if runs == "surfaces" else ~inside)
-    over = (table.filter(pl.col("level_error_db") > budget).select("run_id", "band").unique()
-            .join(results.run_groups(), on="run_id", how="left")
-            .with_columns(pl.col("group").fill_null(pl.col("run_id"))))
+    levels = [c for c in ("enveloped_level", "pressure_level") if c in table.columns]
+    keys = [c for c in ("youngs_modulus", "model") if c in table.columns]
+    stated = table.filter(pl.col("level_error_db").is_not_null()).join(results.run_groups(), on="run_id", how="left")
+    stated = stated.with_columns(pl.col("group").fill_null(pl.col("run_id")))
+    if levels:
+        means = stated.group_by("group", "band", *keys).agg(
+            pl.max_horizontal(*[mean_level_error(c, "level_error_db") for c in levels]).alias("mean_error_db"))
+    else:   # a table without levels: its rows' errors as they are
+        means = stated.select("group", "band", pl.col("level_error_db").alias("mean_error_db"))
+    over = means.filter(pl.col("mean_error_db") > budget)
     marked: dict[str, set[int]] = {}
     for group, band in over.select("group", "band").iter_rows():
         marked.setdefault(str(group), set()).add(int(band))
