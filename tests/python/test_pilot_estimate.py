@@ -137,4 +137,5 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     spread = [n for where, interpolant, _, n in solved if interpolant == "linear"]   # the default pchip road against the linear one
     tolerance = [n for where, _, tol, n in solved if where == "pilot"]
     assert spread and max(spread) <= SPREAD_MAX_POINTS
+    assert {tol for _, interpolant, tol, _ in solved if interpolant == "linear"} == {study.SPREAD_TOL}
     assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
