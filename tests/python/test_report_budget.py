@@ -269,3 +269,37 @@ def test_spectra_rows_carry_one_axis_title(drawn) -> None:
     for name in ("texture_spectra", "pressure_spectra"):
         titled = [ax for ax in drawn[name].axes if ax.get_visible() and ax.get_xlabel()]
         assert len(titled) == 1 and "centre wavelength (mm)" in titled[0].get_xlabel(), name
+
+
+def test_a_quiet_rows_larger_statement_marks_a_band_only_when_it_moves_the_drawn_mean() -> None:
+    """The report marks a band over the budget when the mean it draws may be off by more (each row's
+    stated error weighted by its power), not whenever one row states more: a quiet row (a band with
+    little power in its segment) states a larger error (bands.parquet level_error_db) but weighs
+    little in the mean."""
+    from types import SimpleNamespace
+
+    from roadtex.report.data import over_budget_bands
+
+    def table(quiet_level: float, quiet_error: float) -> pl.DataFrame:
+        # band 20: three rows at 60 dB stating 0.1 dB and one quieter row stating more; band 21: 0.3 dB
+        return pl.DataFrame({
+            "run_id": ["a"] * 5, "band": [20, 20, 20, 20, 21], "youngs_modulus": [2e6] * 5, "model": ["line"] * 5,
+            "enveloped_level": [60.0, 60.0, 60.0, quiet_level, 60.0],
+            "pressure_level": [120.0, 120.0, 120.0, quiet_level + 60.0, 120.0],
+            "level_error_db": [0.1, 0.1, 0.1, quiet_error, 0.3]})
+
+    results = SimpleNamespace(options={"error_budget_db": 0.2},
+                              run_groups=lambda: pl.DataFrame({"run_id": ["a"], "group": ["dense"]}))
+
+    def mean_error(rows: pl.DataFrame) -> float:
+        """The drawn mean raised by each row's own error, less the mean (dB), worked out here."""
+        power = 10 ** (rows["enveloped_level"].to_numpy() / 10)
+        raised = power * 10 ** (rows["level_error_db"].to_numpy() / 10)
+        return float(10 * np.log10(raised.sum() / power.sum()))
+
+    quiet = table(40.0, 1.0)       # 20 dB below: 1 dB stated, 1 % of the band's power
+    assert mean_error(quiet.filter(pl.col("band") == 20)) < 0.2
+    assert over_budget_bands(results, quiet) == {"dense": {21}}
+    loud = table(60.0, 1.0)        # the same statement on a row as loud as the others: the mean moves
+    assert mean_error(loud.filter(pl.col("band") == 20)) > 0.2
+    assert over_budget_bands(results, loud) == {"dense": {20, 21}}
