@@ -26,9 +26,9 @@ SEGMENT = 0.5
 
 
 def test_below_typical_factor_is_one_at_or_above_the_median_and_grows_with_the_amplitude() -> None:
-    typical = np.array([50.0, 50.0, 50.0, 50.0, np.nan, 50.0])
-    level = np.array([55.0, 50.0, 40.0, 30.0, 40.0, -np.inf])
-    factor = below_typical_factor(level, typical)
+    rows = pl.DataFrame({"typical": [50.0, 50.0, 50.0, 50.0, np.nan, 50.0],
+                         "level": [55.0, 50.0, 40.0, 30.0, 40.0, -np.inf]})
+    factor = rows.select(below_typical_factor(pl.col("level"), pl.col("typical")).alias("factor"))["factor"].to_numpy()
     # 10 and 20 dB below: the amplitude is 10^0.5 and 10 times smaller; no number to scale by: 1
     np.testing.assert_allclose(factor, [1.0, 1.0, np.sqrt(10.0), 10.0, 1.0, 1.0])
 

@@ -37,7 +37,7 @@ from roadtex.archive.schemas import (
     units,
 )
 from roadtex.archive.store import checksums, file_sha256, read_status, write_atomically, write_json
-from roadtex.budget.estimate import BELOW_TYPICAL_EXPONENT
+from roadtex.budget.estimate import below_typical_factor
 
 #: Tables of some runs only (line runs: sections; surface runs: areal parameters), combined from those that have them.
 SECTION_TABLES = {"sections": SECTION_SCHEMA, "section_bands": SECTION_BAND_SCHEMA, "areal": AREAL_SCHEMA}
@@ -254,15 +254,13 @@ def surface_estimates(files: list[Path], budget_db: float | None) -> tuple[pl.Da
 
 def below_typical(rows: pl.Expr) -> pl.Expr:
     """Per row of ``rows`` (line runs' rows with a group statement), the factor on its group's stated
-    error (:func:`roadtex.budget.estimate.below_typical_factor`): the larger of its enveloped and
-    pressure levels' 10^(0.5 (median - level) / 10), the median over the reported rows of its group
-    (``typical_over``), band and modulus; 1 at or above the median and where a level is not finite."""
+    error: the larger of its enveloped and pressure levels' :func:`roadtex.budget.estimate.below_typical_factor`
+    against the median over the reported rows of its group (``typical_over``), band and modulus."""
     factors = []
     for level in ("enveloped_level", "pressure_level"):
         finite = rows & pl.col("reported") & pl.col(level).is_finite()
         typical = pl.col(level).filter(finite).median().over("typical_over", "band", "youngs_modulus")
-        below = typical - pl.col(level)
-        factors.append(pl.when(finite & (below > 0.0)).then(10.0 ** (BELOW_TYPICAL_EXPONENT * below / 10.0)))
+        factors.append(pl.when(finite).then(below_typical_factor(pl.col(level), typical)))
     return pl.max_horizontal(pl.lit(1.0), *factors)
 
 

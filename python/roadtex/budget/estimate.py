@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+import polars as pl
 
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB
 
@@ -60,15 +61,14 @@ SPREAD_FACTOR = 2.0
 BELOW_TYPICAL_EXPONENT = 0.5
 
 
-def below_typical_factor(level_db: np.ndarray, typical_db: np.ndarray) -> np.ndarray:
+def below_typical_factor(level_db: pl.Expr, typical_db: pl.Expr) -> pl.Expr:
     """The factor (>= 1) on a group's stated error for a level ``level_db`` whose group's typical
-    (median) level of its band and modulus is ``typical_db`` (dB, broadcast): 10^(0.5 (typical -
-    level) / 10) below the median (:data:`BELOW_TYPICAL_EXPONENT`), 1 at or above it and where
-    either is not finite (a band without power: its level is not a number to scale by)."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        below = np.asarray(typical_db, dtype=np.float64) - np.asarray(level_db, dtype=np.float64)
-        factor = 10.0 ** (BELOW_TYPICAL_EXPONENT * below / 10.0)
-    return np.where(np.isfinite(below) & (factor > 1.0), factor, 1.0)
+    (median) level of its band and modulus is ``typical_db`` (dB; polars expressions): 10^(0.5
+    (typical - level) / 10) below the median (:data:`BELOW_TYPICAL_EXPONENT`), 1 at or above it and
+    where either is not finite (a band without power: its level is not a number to scale by)."""
+    below = typical_db - level_db
+    return (pl.when(below.is_finite() & (below > 0.0)).then(10.0 ** (BELOW_TYPICAL_EXPONENT * below / 10.0))
+            .otherwise(1.0))
 
 
 def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
