@@ -41,13 +41,11 @@ pub struct Circulant2 {
 
 /// Scratch buffers of one thread for [`Circulant2`] products.
 pub struct Circulant2Scratch {
-    /// Two rows packed as one complex row (nx).
-    pair: Vec<Complex<f64>>,
     /// Row spectra, row-major: ny x (nx/2 + 1).
     rows: Vec<Complex<f64>>,
-    /// One block of columns, `stride` apart.
-    block: Vec<Complex<f64>>,
-    fft_scratch: Vec<Complex<f64>>,
+    /// The serial products' task buffers (empty for a grid transformed in parallel, whose tasks
+    /// hold their own).
+    buffers: TaskBuffers,
     /// 2-D FFT pairs applied with this scratch (a cost counter, as the line solver's).
     pairs: u64,
 }
@@ -59,9 +57,11 @@ impl Circulant2Scratch {
     }
 }
 
-/// The buffers of one task of a parallel phase (a row chunk or a column block).
+/// The buffers of one task (a row chunk or a column block), or of a serial product.
 struct TaskBuffers {
+    /// Two rows packed as one complex row (nx).
     pair: Vec<Complex<f64>>,
+    /// One block of columns, `stride` apart.
     block: Vec<Complex<f64>>,
     fft_scratch: Vec<Complex<f64>>,
 }
@@ -109,10 +109,36 @@ impl Circulant2 {
         }
     }
 
+    /// Runs `task` with this thread's task buffers, sized for this grid and `columns` columns a
+    /// block: kept between products (a fresh set per rayon split zeroed some 8 MB a product at
+    /// 1024^2). Their contents never reach a result: every entry is written before it is read.
+    fn with_thread_buffers<R>(&self, columns: usize, task: impl FnOnce(&mut TaskBuffers) -> R) -> R {
+        thread_local! {
+            static BUFFERS: std::cell::RefCell<TaskBuffers> =
+                const { std::cell::RefCell::new(TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() }) };
+        }
+        BUFFERS.with(|cell| {
+            let mut b = cell.borrow_mut();
+            let zero = Complex::default();
+            b.pair.resize(self.nx, zero);
+            if b.block.len() < columns * self.stride {
+                b.block.resize(columns * self.stride, zero);
+            }
+            let scratch = self.fft_scratch_len();
+            if b.fft_scratch.len() < scratch {
+                b.fft_scratch.resize(scratch, zero);
+            }
+            task(&mut b)
+        })
+    }
+
     pub fn scratch(&self) -> Circulant2Scratch {
-        let columns = if self.parallel() { 0 } else { COLUMN_BLOCK };
-        let TaskBuffers { pair, block, fft_scratch } = self.task_buffers(columns);
-        Circulant2Scratch { pair, rows: vec![Complex::default(); self.spectrum_len()], block, fft_scratch, pairs: 0 }
+        let buffers = if self.parallel() {
+            TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() }
+        } else {
+            self.task_buffers(COLUMN_BLOCK)
+        };
+        Circulant2Scratch { rows: vec![Complex::default(); self.spectrum_len()], buffers, pairs: 0 }
     }
 
     /// Rows per row task when parallel: even, so that a row pair never straddles two tasks.
@@ -247,12 +273,9 @@ impl Circulant2 {
             input
                 .par_chunks(per * nx)
                 .zip(s.rows.par_chunks_mut(per * h))
-                .for_each_init(|| self.task_buffers(0), |b, (input, rows)| self.rows_forward_task(input, rows, b));
+                .for_each(|(input, rows)| self.with_thread_buffers(0, |b| self.rows_forward_task(input, rows, b)));
         } else {
-            let mut b =
-                TaskBuffers { pair: std::mem::take(&mut s.pair), block: Vec::new(), fft_scratch: std::mem::take(&mut s.fft_scratch) };
-            self.rows_forward_task(input, &mut s.rows, &mut b);
-            (s.pair, s.fft_scratch) = (b.pair, b.fft_scratch);
+            self.rows_forward_task(input, &mut s.rows, &mut s.buffers);
         }
     }
 
@@ -263,12 +286,9 @@ impl Circulant2 {
             s.rows
                 .par_chunks_mut(per * h)
                 .zip(out.par_chunks_mut(per * nx))
-                .for_each_init(|| self.task_buffers(0), |b, (rows, out)| self.rows_inverse_task(rows, out, b));
+                .for_each(|(rows, out)| self.with_thread_buffers(0, |b| self.rows_inverse_task(rows, out, b)));
         } else {
-            let mut b =
-                TaskBuffers { pair: std::mem::take(&mut s.pair), block: Vec::new(), fft_scratch: std::mem::take(&mut s.fft_scratch) };
-            self.rows_inverse_task(&mut s.rows, out, &mut b);
-            (s.pair, s.fft_scratch) = (b.pair, b.fft_scratch);
+            self.rows_inverse_task(&mut s.rows, out, &mut s.buffers);
         }
     }
 
@@ -279,32 +299,26 @@ impl Circulant2 {
             // Blocks of columns touch disjoint entries of every row: each task reaches the
             // spectrum through a raw pointer, its own columns only.
             let rows = SharedRows(s.rows.as_mut_ptr(), s.rows.len());
-            (0..h.div_ceil(COLUMN_BLOCK)).into_par_iter().for_each_init(
-                || self.task_buffers(COLUMN_BLOCK),
-                |b, block| {
-                    let first = block * COLUMN_BLOCK;
-                    let count = COLUMN_BLOCK.min(h - first);
-                    // SAFETY: `s.rows` outlives the loop and is not otherwise used in it; blocks
-                    // are disjoint.
-                    unsafe { self.columns_task(multiplier, rows, first, count, b) };
-                },
-            );
+            (0..h.div_ceil(COLUMN_BLOCK)).into_par_iter().for_each(|block| {
+                let first = block * COLUMN_BLOCK;
+                let count = COLUMN_BLOCK.min(h - first);
+                // SAFETY: `s.rows` outlives the loop and is not otherwise used in it; blocks are
+                // disjoint.
+                self.with_thread_buffers(COLUMN_BLOCK, |b| unsafe { self.columns_task(multiplier, rows, first, count, b) });
+            });
         } else {
-            let mut b =
-                TaskBuffers { pair: Vec::new(), block: std::mem::take(&mut s.block), fft_scratch: std::mem::take(&mut s.fft_scratch) };
             let rows = SharedRows(s.rows.as_mut_ptr(), s.rows.len());
             for first in (0..h).step_by(COLUMN_BLOCK) {
                 // SAFETY: one task at a time, `s.rows` not otherwise used meanwhile.
-                unsafe { self.columns_task(multiplier, rows, first, COLUMN_BLOCK.min(h - first), &mut b) };
+                unsafe { self.columns_task(multiplier, rows, first, COLUMN_BLOCK.min(h - first), &mut s.buffers) };
             }
-            (s.block, s.fft_scratch) = (b.block, b.fft_scratch);
         }
     }
 
     /// out = operator(multiplier) * input: multiplier holds the (nx/2 + 1) ny real eigenvalues.
     pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], s: &mut Circulant2Scratch) {
-        debug_assert_eq!(multiplier.len(), self.spectrum_len());
-        debug_assert_eq!(input.len(), self.nx * self.ny);
+        assert_eq!(multiplier.len(), self.spectrum_len(), "a multiplier of the wrong size");
+        assert_eq!(input.len(), self.nx * self.ny, "an input of the wrong size");
         self.rows_forward(input, s);
         self.columns(Some(multiplier), s);
         self.rows_inverse(s, out);
@@ -362,9 +376,10 @@ mod tests {
 
     #[test]
     fn products_match_a_direct_circular_convolution_for_odd_and_even_sizes() {
-        // Small grids run serially, from 2^15 points in parallel; odd ny leaves a lone last row
+        // Small grids run serially, from 2^15 points in parallel (183^2, 257 x 130, 128 x 257;
+        // 181^2 just below); odd ny leaves a lone last row
         // and odd nx a spectrum without a Nyquist bin.
-        for (ny, nx) in [(4, 5), (5, 4), (7, 9), (8, 8), (9, 16), (181, 181), (130, 256), (257, 130), (128, 257)] {
+        for (ny, nx) in [(4, 5), (5, 4), (7, 9), (8, 8), (9, 16), (181, 181), (183, 183), (130, 256), (257, 130), (128, 257)] {
             let circulant = Circulant2::new(ny, nx);
             let mut column = vec![0.0; ny * nx];
             for &(dy, dx, w) in &STENCIL {
@@ -381,5 +396,25 @@ mod tests {
             assert!(worst <= 1e-12 * scale, "{ny} x {nx}: off by {worst:e} of {scale:e}");
             assert_eq!(scratch.pairs(), 1);
         }
+    }
+
+    #[test]
+    fn products_are_bitwise_the_same_on_one_and_three_threads() {
+        let (ny, nx) = (257, 130);
+        let circulant = Circulant2::new(ny, nx);
+        let column: Vec<f64> = (0..ny * nx).map(|i| 1.0 / (1.0 + (i % 97) as f64)).collect();
+        let input: Vec<f64> = (0..ny * nx).map(|i| ((i * 7919 % 1009) as f64).sin()).collect();
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let multiplier = circulant.spectrum_of(&column);
+                let mut out = vec![0.0; ny * nx];
+                circulant.apply(&multiplier, &input, &mut out, &mut circulant.scratch());
+                (multiplier, out)
+            })
+        };
+        let (one, three) = (run(1), run(3));
+        assert!(one.0.iter().zip(&three.0).all(|(a, b)| a.to_bits() == b.to_bits()), "spectra differ");
+        assert!(one.1.iter().zip(&three.1).all(|(a, b)| a.to_bits() == b.to_bits()), "products differ");
     }
 }
