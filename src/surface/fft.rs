@@ -5,9 +5,10 @@
 //! scattered in place, then the rows two at a time back. Any sizes (not only powers of two); plans
 //! are built once and shared by threads.
 //!
-//! Why not a real transform per row into a transposed copy and back (0.5.1): one thread, this
-//! machine, the 1024^2 self-affine solve (tol 1e-8, 45 iterations, kernel build included) took
-//! 2.37-2.57 s of CPU against 2.99-3.18 s (4 runs each, alternated). Each product now streams
+//! Why not a real transform per row into a transposed copy and back (0.5.1): the 1024^2
+//! self-affine solve (tol 1e-8, 45 iterations, kernel build included), runs alternated with the
+//! 0.5.1 build, took about a tenth less (medians of 3 to 5 runs, one and two threads; on a shared
+//! machine whose speed drifts by a fifth: benches/HISTORY-0.5.md). Each product now streams
 //! the grid three times (rows, column blocks in place, rows) and holds one spectrum, not two:
 //! in the solver, between the vector passes, that is what counts; alone, in a loop that keeps
 //! everything in cache, the two ways take about as long (11-12 ms a pair at 1024^2).
