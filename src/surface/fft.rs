@@ -38,6 +38,8 @@ pub struct Circulant2 {
     row_inverse: Arc<dyn Fft<f64>>,
     column_forward: Arc<dyn Fft<f64>>,
     column_inverse: Arc<dyn Fft<f64>>,
+    /// In-place scratch every plan can work with (the largest of theirs).
+    fft_scratch_len: usize,
 }
 
 /// Scratch buffers of one thread for [`Circulant2`] products.
@@ -67,17 +69,26 @@ struct TaskBuffers {
     fft_scratch: Vec<Complex<f64>>,
 }
 
+impl TaskBuffers {
+    const EMPTY: Self = TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() };
+}
+
 impl Circulant2 {
     pub fn new(ny: usize, nx: usize) -> Self {
         let mut planner = FftPlanner::<f64>::new();
+        let plans =
+            [planner.plan_fft_forward(nx), planner.plan_fft_inverse(nx), planner.plan_fft_forward(ny), planner.plan_fft_inverse(ny)];
+        let fft_scratch_len = plans.iter().map(|plan| plan.get_inplace_scratch_len()).max().unwrap_or(0);
+        let [row_forward, row_inverse, column_forward, column_inverse] = plans;
         Self {
             ny,
             nx,
             stride: if ny >= 64 { ny + 2 } else { ny },
-            row_forward: planner.plan_fft_forward(nx),
-            row_inverse: planner.plan_fft_inverse(nx),
-            column_forward: planner.plan_fft_forward(ny),
-            column_inverse: planner.plan_fft_inverse(ny),
+            row_forward,
+            row_inverse,
+            column_forward,
+            column_inverse,
+            fft_scratch_len,
         }
     }
 
@@ -94,51 +105,38 @@ impl Circulant2 {
         self.nx * self.ny >= PARALLEL_MIN
     }
 
-    fn fft_scratch_len(&self) -> usize {
-        [&self.row_forward, &self.row_inverse, &self.column_forward, &self.column_inverse]
-            .iter()
-            .map(|plan| plan.get_inplace_scratch_len())
-            .max()
-            .unwrap_or(0)
-    }
-
-    fn task_buffers(&self, columns: usize) -> TaskBuffers {
-        TaskBuffers {
-            pair: vec![Complex::default(); self.nx],
-            block: vec![Complex::default(); columns * self.stride],
-            fft_scratch: vec![Complex::default(); self.fft_scratch_len()],
+    /// Makes `b` large enough for this grid's tasks with `columns` columns a block (never
+    /// smaller: a thread's buffers serve grids of any size in turn).
+    fn fit(&self, b: &mut TaskBuffers, columns: usize) {
+        let zero = Complex::default();
+        b.pair.resize(self.nx, zero);
+        if b.block.len() < columns * self.stride {
+            b.block.resize(columns * self.stride, zero);
+        }
+        if b.fft_scratch.len() < self.fft_scratch_len {
+            b.fft_scratch.resize(self.fft_scratch_len, zero);
         }
     }
 
-    /// Runs `task` with this thread's task buffers, sized for this grid and `columns` columns a
+    /// Runs `task` with this thread's task buffers, fitted to this grid and `columns` columns a
     /// block: kept between products (a fresh set per rayon split zeroed some 8 MB a product at
     /// 1024^2). Their contents never reach a result: every entry is written before it is read.
     fn with_thread_buffers<R>(&self, columns: usize, task: impl FnOnce(&mut TaskBuffers) -> R) -> R {
         thread_local! {
-            static BUFFERS: std::cell::RefCell<TaskBuffers> =
-                const { std::cell::RefCell::new(TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() }) };
+            static BUFFERS: std::cell::RefCell<TaskBuffers> = const { std::cell::RefCell::new(TaskBuffers::EMPTY) };
         }
         BUFFERS.with(|cell| {
             let mut b = cell.borrow_mut();
-            let zero = Complex::default();
-            b.pair.resize(self.nx, zero);
-            if b.block.len() < columns * self.stride {
-                b.block.resize(columns * self.stride, zero);
-            }
-            let scratch = self.fft_scratch_len();
-            if b.fft_scratch.len() < scratch {
-                b.fft_scratch.resize(scratch, zero);
-            }
+            self.fit(&mut b, columns);
             task(&mut b)
         })
     }
 
     pub fn scratch(&self) -> Circulant2Scratch {
-        let buffers = if self.parallel() {
-            TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() }
-        } else {
-            self.task_buffers(COLUMN_BLOCK)
-        };
+        let mut buffers = TaskBuffers::EMPTY;
+        if !self.parallel() {
+            self.fit(&mut buffers, COLUMN_BLOCK);
+        }
         Circulant2Scratch { rows: vec![Complex::default(); self.spectrum_len()], buffers, pairs: 0 }
     }
 
