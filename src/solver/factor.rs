@@ -1,6 +1,8 @@
 //! The coarse matrix's Cholesky factor and solves (for [`super::deflation`]).
 
-use faer::{MatRef, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch, LltRegularization};
+use faer::{MatMut, Par};
 
 use super::reduce::dot4;
 use super::wide::wide_fn;
@@ -11,15 +13,23 @@ use super::wide::wide_fn;
 /// work for the coarse spaces of N = 1,000 segments (at most 62 vectors).
 const SMALL_FACTOR: usize = 128;
 
-/// The lower Cholesky factor of the symmetric `e` (row-major, dim x dim) in place of it, row-major
-/// with the upper triangle left as it was; None if `e` is not numerically positive definite.
+/// The lower Cholesky factor of the symmetric `e` (row-major, dim x dim) in place of it, row-major;
+/// the upper triangle holds E's entries (mirrored) or is left as it was. None if `e` is not
+/// numerically positive definite.
 pub(crate) fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
     if dim >= SMALL_FACTOR {
-        let llt = MatRef::from_column_major_slice(&e, dim, dim).llt(Side::Lower).ok()?;
-        let l = llt.L();
+        // In place, sequentially: E is symmetric, so its row-major storage read column-major is E
+        // again, and faer factors its lower triangle there (no copy of the matrix: at the 250 to
+        // 1,024 vectors of the model grids' and long profiles' spaces a copy is a fresh
+        // allocation of 0.5 to 8 MB, whose page faults cost more than the factorisation's
+        // arithmetic). The same arithmetic as `MatRef::llt`, which copies first.
+        let mut scratch = MemBuffer::new(cholesky_in_place_scratch::<f64>(dim, Par::Seq, Default::default()));
+        let view = MatMut::from_column_major_slice_mut(&mut e, dim, dim);
+        cholesky_in_place(view, LltRegularization::default(), Par::Seq, MemStack::new(&mut scratch), Default::default()).ok()?;
+        // L(a, b), a > b, sits at b * dim + a (column-major): move it to a * dim + b (row-major).
         for a in 0..dim {
-            for b in 0..=a {
-                e[a * dim + b] = l[(a, b)];
+            for b in 0..a {
+                e.swap(a * dim + b, b * dim + a);
             }
         }
         return Some(e);
