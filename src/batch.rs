@@ -125,6 +125,63 @@ pub fn solve_many(
     in_pool(threads, run)
 }
 
+/// [`solve_many`] with every (segment, modulus) problem started from its own initial pressure (Pa):
+/// `initial` holds one row of `segments.len` values per problem, segment-major as the results
+/// (row `segment * moduli.len() + modulus`), typically the answer of the same problems on a
+/// neighbouring road (the same readings joined otherwise) or grid. Every result meets the
+/// tolerance by the same test as a cold solve, and is bitwise the same whatever the thread count.
+/// The direct method ignores initial pressures.
+#[allow(clippy::too_many_arguments)]
+pub fn solve_many_from(
+    segments: Segments<'_>,
+    dx: f64,
+    youngs_moduli: &[f64],
+    poisson: f64,
+    mean_pressure: f64,
+    options: SolverOptions,
+    threads: Option<usize>,
+    initial: &[f64],
+) -> Result<Vec<ContactSolution>> {
+    if segments.len == 0 || segments.heights.is_empty() || segments.heights.len() % segments.len != 0 {
+        return invalid("segments must hold whole rows of equal length, at least one");
+    }
+    let jobs = segments.count() * youngs_moduli.len();
+    if initial.len() != jobs * segments.len {
+        return invalid(format!(
+            "initial_pressure holds {} values, the problems need {} ({} segments x {} moduli x {} points)",
+            initial.len(),
+            jobs * segments.len,
+            segments.count(),
+            youngs_moduli.len(),
+            segments.len
+        ));
+    }
+    if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
+        return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
+    }
+    if youngs_moduli.is_empty() {
+        return invalid("youngs_modulus is empty: give one or more moduli in pascals");
+    }
+    let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
+    for s in 0..segments.count() {
+        validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
+    }
+    let solver = ContactSolver::new(segments.len, dx, options)?;
+    let run = || {
+        (0..jobs)
+            .into_par_iter()
+            .map_init(Workspace::default, |workspace, job| {
+                let (s, m) = (job / materials.len(), job % materials.len());
+                let guess = &initial[job * segments.len..(job + 1) * segments.len];
+                solver
+                    .solve_from(workspace, segments.row(s), materials[m], mean_pressure, Some(guess))
+                    .map_err(|e| in_problem(e, s, materials[m]))
+            })
+            .collect::<Result<Vec<_>>>()
+    };
+    in_pool(threads, run)
+}
+
 /// The process that loaded the module (set by the Python binding's module init).
 static LOADED_IN: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
 

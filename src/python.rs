@@ -11,7 +11,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
-use crate::batch::{fork_safe, solve_many as solve_many_core, Segments};
+use crate::batch::{fork_safe, solve_many as solve_many_core, solve_many_from, Segments};
 use crate::clapp::{clapp as clapp_core, ClappOptions};
 use crate::envelope::von_meier as von_meier_core;
 use crate::error::{invalid, ContactError, Result};
@@ -139,7 +139,7 @@ type SolvedMany<'py> = (
 
 /// Every (segment, modulus) pair in parallel. Arrays are indexed [segment, modulus, ...].
 #[pyfunction]
-#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false, coarse_start=None))]
+#[pyo3(signature = (segments, dx, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false, coarse_start=None, initial_pressure=None))]
 #[allow(clippy::too_many_arguments)]
 fn solve_many<'py>(
     py: Python<'py>,
@@ -156,6 +156,7 @@ fn solve_many<'py>(
     threads: Option<usize>,
     warm_start: bool,
     coarse_start: Option<usize>,
+    initial_pressure: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<SolvedMany<'py>> {
     guarded(py, || {
         let options = options(periodic, kernel, method, tol, max_iterations).map_err(|e| to_py_err(py, e))?;
@@ -165,8 +166,13 @@ fn solve_many<'py>(
         let moduli = youngs_moduli.as_slice()?.to_vec();
         let m = moduli.len();
         let segments = Segments { heights: &heights, len };
+        // Each problem from its own start (rows segment-major), or cold / chained / coarse-started.
+        let initial: Option<Vec<f64>> = initial_pressure.map(|a| a.as_array().iter().copied().collect());
         let solutions = py
-            .detach(|| solve_many_core(segments, dx, &moduli, poisson, mean_pressure, options, threads, warm_start, coarse_start))
+            .detach(|| match &initial {
+                Some(initial) => solve_many_from(segments, dx, &moduli, poisson, mean_pressure, options, threads, initial),
+                None => solve_many_core(segments, dx, &moduli, poisson, mean_pressure, options, threads, warm_start, coarse_start),
+            })
             .map_err(|e| to_py_err(py, e))?;
         let mut pressure = Vec::with_capacity(count * m * len);
         let mut envelope = Vec::with_capacity(count * m * len);

@@ -25,6 +25,7 @@ def solve_many(
     segments: npt.NDArray[np.float64], dx: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
     mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
     threads: int | None = None, warm_start: bool = False, coarse_start: int | None = None,
+    initial_pressure: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
            npt.NDArray[np.bool_]]: ...
 def solve_surface(

@@ -125,9 +125,9 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     solved: list[tuple[str, str, float, int]] = []
 
     def counting(where: str, original):
-        def solve(pilot, heights, dx, tol, refine=1, interpolant=None):
+        def solve(pilot, heights, dx, tol, refine=1, interpolant=None, **starts):
             solved.append((where, interpolant or pilot.interpolant, tol, heights.shape[1] * refine))
-            return original(pilot, heights, dx, tol, refine, interpolant)
+            return original(pilot, heights, dx, tol, refine, interpolant, **starts)
         return solve
 
     monkeypatch.setattr(study, "solve_levels", counting("study", study.solve_levels))

@@ -20,7 +20,7 @@ from roadtex._checks import (
     to_float,
     warn_if_implausible_rubber,
 )
-from roadtex.errors import ConvergenceError
+from roadtex.errors import ConvergenceError, InvalidInputError
 from roadtex.models.results import ContactBatch, ContactResult
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.profiles.profile import Profile
@@ -97,6 +97,19 @@ def contact(
     return ContactResult(z, dx_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
 
 
+def initial_rows(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
+    """``initial_pressure`` (segments, moduli, N) checked against the problems and flattened to one
+    row per problem, segment-major (as the core takes it)."""
+    initial = np.asarray(initial_pressure, dtype=np.float64)
+    wanted = (shape[0], n_moduli, shape[1])
+    if initial.shape != wanted:
+        raise InvalidInputError(f"initial_pressure must have shape (segments, moduli, points) = {wanted}, "
+                                f"got {initial.shape}")
+    if not np.all(np.isfinite(initial)) or (initial < 0).any():
+        raise InvalidInputError("initial_pressure must be finite pressures >= 0 (Pa)")
+    return np.ascontiguousarray(initial.reshape(shape[0] * n_moduli, shape[1]))
+
+
 def contact_many(
     segments: np.ndarray | Sequence[Sequence[float]],
     dx: float,
@@ -112,6 +125,7 @@ def contact_many(
     threads: int | None = None,
     warm_start: bool = False,
     coarse_start: int | None = None,
+    initial_pressure: np.ndarray | None = None,
     raise_on_nonconvergence: bool = True,
 ) -> ContactBatch:
     """Solves :func:`contact` for every segment (row) and every modulus, in parallel.
@@ -137,6 +151,12 @@ def contact_many(
             the fine grid; results meet ``tol`` by the same test, within it of cold solves, and
             stay bitwise the same whatever the thread count. The segment length must be a multiple
             of ``k``; None or 1: no coarse start. Ignored by ``method="direct"``.
+        initial_pressure: (segments, moduli, N) array of pressures (Pa, >= 0), each problem's start,
+            typically a batch's ``pressure`` for the same readings joined by another road or solved
+            to another tolerance on the same grid: each (segment, modulus) solve begins on that
+            contact set (``warm_start`` and ``coarse_start`` then do not apply). Results meet
+            ``tol`` by the same test as cold solves, within it of them, and stay bitwise the same
+            whatever the thread count. Ignored by ``method="direct"``.
         Other arguments: as for :func:`contact`.
 
     Returns:
@@ -149,10 +169,11 @@ def contact_many(
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
     warn_if_implausible_rubber(moduli, p_f)
+    initial = None if initial_pressure is None else initial_rows(initial_pressure, heights.shape, moduli.size)
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
-        coarse,
+        coarse, initial,
     )
     if raise_on_nonconvergence and not converged.all():
         bad = np.argwhere(~converged)
