@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import roadtex
+from roadtex.budget import study
 from roadtex.budget.study import build_pilot, interpolant_spread, match, segments_of
 from roadtex.errors import InvalidInputError
-from roadtex.models.grid import refine_periodic
+from roadtex.models.grid import prolong_pressure, refine_periodic
 
 MODULI = [1e6, 2e6, 5e6, 10e6]
 P = 2e5
@@ -78,3 +79,35 @@ def test_the_pilot_spread_from_the_job_roads_pressures_matches_the_spread_solved
     assert pilot.interpolant_spread is not None and np.nanmax(cold) > 0.05
     assert np.array_equal(np.isnan(started), np.isnan(cold))
     assert np.nanmax(np.abs(started - cold)) < 1e-3, (started, cold)
+
+
+def test_a_pressure_prolonged_is_linear_between_its_points_keeps_its_mean_and_wraps() -> None:
+    coarse = np.array([[0.0, 2.0, 4.0, 2.0], [1.0, 1.0, 1.0, 5.0]])
+    fine = prolong_pressure(coarse, 2)
+    assert np.array_equal(fine[0], [0.0, 1.0, 2.0, 3.0, 4.0, 3.0, 2.0, 1.0])
+    assert np.array_equal(fine[1], [1.0, 1.0, 1.0, 1.0, 1.0, 3.0, 5.0, 3.0])   # the last interval wraps to the first point
+    thrice = prolong_pressure(coarse, 3)
+    assert np.array_equal(thrice[:, ::3], coarse) and np.allclose(thrice.mean(axis=1), coarse.mean(axis=1), rtol=1e-15)
+    assert prolong_pressure(coarse, 1) is coarse
+
+
+def test_each_rung_of_the_pilots_reference_starts_from_the_last(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reference's rungs k = 2, 4, ... start from the rung below (its pressures prolonged); the
+    first rung and the candidates solve as the job does (moduli chained)."""
+    calls: list[tuple[float, int, tuple[int, ...] | None]] = []
+    original = study.contact_many
+
+    def spy(model, dx, moduli, p, **kwargs):
+        start = kwargs.get("initial_pressure")
+        calls.append((kwargs["tol"], model.shape[1], None if start is None else start.shape))
+        return original(model, dx, moduli, p, **kwargs)
+
+    monkeypatch.setattr(study, "contact_many", spy)
+    profile = roadtex.synthetic_pavement("dense_asphalt", 1.5, 1e-3, seed=4)
+    pilot = build_pilot(profile, youngs_moduli=MODULI, mean_pressure=P, poisson=0.5, segment_length=0.5,
+                        n_segments=3, band_kind="third_octave", spike_alpha=None, max_iterations=2000, threads=1,
+                        max_refine=8, interpolants=False)
+    rungs = [(n, start) for tol, n, start in calls if tol == study.REFERENCE_TOL]
+    assert pilot.refine >= 2 and [n for n, _ in rungs] == [500 * k for k in sorted(pilot.sequence)]
+    assert rungs[0][1] is None
+    assert all(start == (3, len(MODULI), n) for n, start in rungs[1:])

@@ -183,3 +183,19 @@ def coarse_points(fine: np.ndarray, refine: int) -> np.ndarray:
     """The model's values at the data's readings: every ``refine``-th point of (..., N k) arrays."""
     k = check_refine(refine)
     return fine if k == 1 else np.ascontiguousarray(fine[..., ::k])
+
+
+def prolong_pressure(coarse: np.ndarray, factor: int) -> np.ndarray:
+    """A periodic pressure field (..., N) on the grid ``factor`` times finer (..., N factor), linear
+    between the coarse points (coarse point i on fine point i factor): p >= 0 and the mean kept
+    (each coarse value spreads over weights summing to ``factor``). A start for a finer solve of the
+    same readings, as :func:`roadtex.contact_many`'s ``initial_pressure``; the same rule as the
+    core's coarse start."""
+    k = check_refine(factor, "factor")
+    if k == 1:
+        return coarse
+    following = np.roll(coarse, -1, axis=-1)
+    fine = np.empty(coarse.shape[:-1] + (coarse.shape[-1] * k,))
+    for j in range(k):
+        fine[..., j::k] = coarse + (following - coarse) * (j / k)
+    return fine
