@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+import polars as pl
 import pytest
 
 import roadtex
@@ -139,3 +140,36 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     assert spread and max(spread) <= SPREAD_MAX_POINTS
     assert {tol for _, interpolant, tol, _ in solved if interpolant == "linear"} == {study.SPREAD_TOL}
     assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
+
+
+def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_as_fine_as_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """What a tighter tol can gain is measured when a candidate misses the budget at the loosest
+    tol, once per rung, on the coarsest rung of the reference whose model interval is at least as
+    fine as that candidate's (it bounds every coarser grid); one candidate tol: never."""
+    measured: list[int] = []
+    original = pilot_module.tolerance_effect
+
+    def spy(pilot, tol, k=None):
+        measured.append(k)
+        return original(pilot, tol, k)
+
+    monkeypatch.setattr(pilot_module, "tolerance_effect", spy)
+    profile = roadtex.synthetic_pavement("cement_concrete", 2.0, 0.5e-3, seed=6)
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                    interpolants=False)
+    study_rows = choice.study.filter(~pl.col("reference"))
+    loosest = study_rows["tol"].max()
+    missed = study_rows.filter((pl.col("tol") == loosest) & pl.col("in_budget")).group_by("dx", "refine").agg(
+        pl.col("level_error_db").max()).filter(pl.col("level_error_db") > choice.budget_db)
+    # the reference's rungs: the file's grid halved up to its K (model grids within SPREAD_MAX_POINTS)
+    rungs = [2 ** i for i in range(6) if 2 ** i <= choice.reference_refine]
+    needed = {next(r for r in rungs if r >= k) for k in missed["refine"].to_list() if k <= rungs[-1]}
+    assert len(measured) == len(set(measured)) and set(measured) <= needed, (measured, needed)
+    assert missed.height == 0 or measured, "a candidate missed at the loosest tol: its gain must be measured"
+    assert measured and needed, (missed, measured)   # this road has misses (else the test shows nothing)
+    assert all(k < choice.reference_refine for k in measured) or choice.reference_refine <= 2, (measured, choice)
+    measured.clear()
+    roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                           interpolants=False, tol_candidates=[1e-3])
+    assert measured == []

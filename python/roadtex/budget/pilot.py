@@ -116,22 +116,30 @@ def setting_summary(rows: list[dict]) -> dict[Setting, tuple[float, float, float
     return out
 
 
-def tolerance_effect(pilot: Pilot, tol: float) -> tuple[float, float]:
+def tolerance_rungs(pilot: Pilot) -> list[int]:
+    """The rungs of the reference's sequence the tolerance effect may be measured on (model grids of
+    at most :data:`~roadtex.budget.study.SPREAD_MAX_POINTS` a segment; the coarsest when none is)."""
+    rungs = sorted(pilot.sequence)
+    fitting = [k for k in rungs if k * pilot.points <= SPREAD_MAX_POINTS]
+    return fitting or rungs[:1]
+
+
+def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[float, float]:
     """How much tightening the loosest tol can lower an estimate (dB), and the finest model interval
     (m) that bound holds for.
 
-    The tol error is measured on the pilot segments at the file's dx on the finest grid of the
-    reference's sequence within :data:`~roadtex.budget.study.SPREAD_MAX_POINTS` (the reference's
-    own where it fits; issue 39: on CAPTIF at 0.0375 mm k = 2, not 4), against the same grid at tol
-    1e-10. The solver's criterion is a gap relative to the profile's peak-to-valley height, and a
-    gap error moves a pressure by about E* gap / dx: at a fixed tol the level errors shrink as the
-    model interval grows, so the tol error there bounds the gain on every coarser model grid
-    (doubled for safety); finer ones get the tighter tolerances tried (bound inf).
+    The tol error is measured on the pilot segments at the file's dx on rung ``k`` of the
+    reference's sequence (default: the finest within
+    :data:`~roadtex.budget.study.SPREAD_MAX_POINTS`, :func:`tolerance_rungs`), against the same
+    grid at tol 1e-10. The solver's criterion is a gap relative to the profile's peak-to-valley
+    height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the level errors
+    shrink as the model interval grows, so the tol error there bounds the gain on every coarser
+    model grid (doubled for safety); finer ones get the tighter tolerances tried (bound inf).
     """
     heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
     heights = heights[match(pilot.starts, pilot.pilot)]
-    fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
-    k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
+    if k is None:
+        k = pilot.refine if pilot.refine in tolerance_rungs(pilot) else max(tolerance_rungs(pilot))
     levels, ok, _, _ = solve_levels(pilot, heights, pilot.dx, tol, k)
     budget = pilot.bands["in_budget"].to_numpy() & ok
     gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
@@ -212,9 +220,21 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                   reverse=True)
 
     rows: list[dict] = []
-    slack, finest_bounded = 0.0, 0.0
-    if len(tols) > 1:  # the tol error on a fine grid bounds what tighter tolerances can gain
-        slack, finest_bounded = tolerance_effect(pilot, tols[0])
+    # What a tighter tol can gain at a model interval (dB): measured once per rung of the reference,
+    # and only when a candidate misses the budget at the loosest tol, on the coarsest rung at least
+    # as fine as that candidate (issue 39: the finest rung cost a second or more, on CAPTIF as
+    # measured 1.7 of the pilot's 12 s, and most candidates never ask). One tol: nothing to gain.
+    effects: dict[int, float] = {}
+
+    def tighter_tol_gain(model_dx: float) -> float:
+        if len(tols) < 2:
+            return 0.0
+        rung = next((r for r in tolerance_rungs(pilot) if pilot.dx / r <= model_dx * (1 + 1e-9)), None)
+        if rung is None:   # finer than every rung measured: the tighter tolerances are tried
+            return np.inf
+        if rung not in effects:
+            effects[rung] = tolerance_effect(pilot, tols[0], rung)[0]
+        return effects[rung]
 
     def evaluate(setting: tuple[float, int]) -> bool:
         """Study rows at ``setting`` (dx, k), loosest tol first, tighter ones only while they can
@@ -228,8 +248,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
             worst = max((r["level_error_db"] for r in new if r["in_budget"]), default=0.0)
             if worst <= budget:
                 return True
-            gain = slack if dx / k >= finest_bounded * (1 - 1e-9) else np.inf
-            if worst > budget + gain:  # beyond what a tighter tol can gain
+            if worst > budget + tighter_tol_gain(dx / k):  # beyond what a tighter tol can gain
                 return False
         return False
 
