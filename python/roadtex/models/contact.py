@@ -97,7 +97,7 @@ def contact(
     return ContactResult(z, dx_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
 
 
-def initial_rows(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
+def _initial_rows(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
     """``initial_pressure`` (segments, moduli, N) checked against the problems and flattened to one
     row per problem, segment-major (as the core takes it)."""
     initial = np.asarray(initial_pressure, dtype=np.float64)
@@ -169,7 +169,7 @@ def contact_many(
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
     warn_if_implausible_rubber(moduli, p_f)
-    initial = None if initial_pressure is None else initial_rows(initial_pressure, heights.shape, moduli.size)
+    initial = None if initial_pressure is None else _initial_rows(initial_pressure, heights.shape, moduli.size)
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
