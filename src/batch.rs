@@ -36,6 +36,32 @@ fn in_problem(error: ContactError, segment: usize, material: Material) -> Contac
     }
 }
 
+/// The checks every batch makes at the door, the moduli as materials, and the one solver (kernel,
+/// FFT plans) all the problems share.
+fn prepare(
+    segments: Segments<'_>,
+    dx: f64,
+    youngs_moduli: &[f64],
+    poisson: f64,
+    mean_pressure: f64,
+    options: SolverOptions,
+) -> Result<(Vec<Material>, ContactSolver)> {
+    if segments.len == 0 || segments.heights.is_empty() {
+        return invalid("segments is empty: give a 2-D array with one profile per row");
+    }
+    if segments.heights.len() % segments.len != 0 {
+        return invalid("segments must hold whole rows of equal length");
+    }
+    if youngs_moduli.is_empty() {
+        return invalid("youngs_modulus is empty: give one or more moduli in pascals");
+    }
+    let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
+    for s in 0..segments.count() {
+        validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
+    }
+    Ok((materials, ContactSolver::new(segments.len, dx, options)?))
+}
+
 /// Solves every (segment, modulus) pair; results are ordered segment-major: index
 /// `segment * moduli.len() + modulus`. `threads = None` uses rayon's global pool.
 ///
@@ -61,20 +87,7 @@ pub fn solve_many(
     warm_start: bool,
     coarse_start: Option<usize>,
 ) -> Result<Vec<ContactSolution>> {
-    if segments.len == 0 || segments.heights.is_empty() {
-        return invalid("segments is empty: give a 2-D array with one profile per row");
-    }
-    if segments.heights.len() % segments.len != 0 {
-        return invalid("segments must hold whole rows of equal length");
-    }
-    if youngs_moduli.is_empty() {
-        return invalid("youngs_modulus is empty: give one or more moduli in pascals");
-    }
-    let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
-    for s in 0..segments.count() {
-        validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
-    }
-    let solver = ContactSolver::new(segments.len, dx, options)?;
+    let (materials, solver) = prepare(segments, dx, youngs_moduli, poisson, mean_pressure, options)?;
     // The direct method ignores initial pressures: no coarse level to solve for it.
     let coarse = match coarse_start {
         Some(k) if options.method == Method::ConjugateGradient => CoarseStart::new(segments.len, dx, k, options)?,
@@ -142,31 +155,21 @@ pub fn solve_many_from(
     threads: Option<usize>,
     initial: &[f64],
 ) -> Result<Vec<ContactSolution>> {
-    if segments.len == 0 || segments.heights.is_empty() || segments.heights.len() % segments.len != 0 {
-        return invalid("segments must hold whole rows of equal length, at least one");
-    }
-    let jobs = segments.count() * youngs_moduli.len();
+    let (materials, solver) = prepare(segments, dx, youngs_moduli, poisson, mean_pressure, options)?;
+    let jobs = segments.count() * materials.len();
     if initial.len() != jobs * segments.len {
         return invalid(format!(
             "initial_pressure holds {} values, the problems need {} ({} segments x {} moduli x {} points)",
             initial.len(),
             jobs * segments.len,
             segments.count(),
-            youngs_moduli.len(),
+            materials.len(),
             segments.len
         ));
     }
     if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
         return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
     }
-    if youngs_moduli.is_empty() {
-        return invalid("youngs_modulus is empty: give one or more moduli in pascals");
-    }
-    let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
-    for s in 0..segments.count() {
-        validate_problem(segments.row(s), dx, mean_pressure).map_err(|e| ContactError::InvalidInput(format!("segment {s}: {e}")))?;
-    }
-    let solver = ContactSolver::new(segments.len, dx, options)?;
     let run = || {
         (0..jobs)
             .into_par_iter()
