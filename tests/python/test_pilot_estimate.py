@@ -131,15 +131,24 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
             return original(pilot, heights, dx, tol, refine, interpolant, **starts)
         return solve
 
+    tolerance: list[int] = []   # the rungs the tolerance effect is measured on (its solve may be a candidate's)
+    measure = pilot_module.tolerance_effect
+
+    def measuring(pilot, tol, k=None):
+        tolerance.append(k * pilot.points)
+        return measure(pilot, tol, k)
+
     monkeypatch.setattr(study, "solve_levels", counting("study", study.solve_levels))
-    monkeypatch.setattr(pilot_module, "solve_levels", counting("pilot", pilot_module.solve_levels))
+    monkeypatch.setattr(pilot_module, "tolerance_effect", measuring)
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
     assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
     spread = [n for where, interpolant, _, n in solved if interpolant == "linear"]   # the default pchip road against the linear one
-    tolerance = [n for where, _, tol, n in solved if where == "pilot"]
     assert spread and max(spread) <= SPREAD_MAX_POINTS
     assert {tol for _, interpolant, tol, _ in solved if interpolant == "linear"} == {study.SPREAD_TOL}
     assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
+    # every loose solve of the pilot segments is made once (a candidate and the tolerance effect share it)
+    loose = [(tol, n) for _, interpolant, tol, n in solved if interpolant != "linear" and tol != study.REFERENCE_TOL]
+    assert len(loose) == len(set(loose)), loose
 
 
 def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_as_fine_as_it(
@@ -154,7 +163,16 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
         measured.append(k)
         return original(pilot, tol, k)
 
+    solves: list[tuple[float, float, int]] = []
+    solve = study.solve_levels
+
+    def counting(pilot, heights, dx, tol, refine=1, interpolant=None, **starts):
+        if interpolant is None and tol != study.REFERENCE_TOL:
+            solves.append((round(dx, 12), tol, refine))
+        return solve(pilot, heights, dx, tol, refine, interpolant, **starts)
+
     monkeypatch.setattr(pilot_module, "tolerance_effect", spy)
+    monkeypatch.setattr(study, "solve_levels", counting)
     profile = roadtex.synthetic_pavement("cement_concrete", 2.0, 0.5e-3, seed=6)
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                                     interpolants=False)
@@ -169,6 +187,8 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
     assert missed.height == 0 or measured, "a candidate missed at the loosest tol: its gain must be measured"
     assert measured and needed, (missed, measured)   # this road has misses (else the test shows nothing)
     assert all(k < choice.reference_refine for k in measured) or choice.reference_refine <= 2, (measured, choice)
+    # the rung measured is a candidate that missed here: its solve is the candidate's, made once
+    assert len(solves) == len(set(solves)) and all((0.5e-3, loosest, k) in solves for k in measured), solves
     measured.clear()
     roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                            interpolants=False, tol_candidates=[1e-3])

@@ -35,10 +35,8 @@ from roadtex.budget.study import (
     candidate_rows,
     check_candidates,
     default_settings,
-    match,
+    pilot_segment_levels,
     run_extreme,
-    segments_of,
-    solve_levels,
 )
 from roadtex.models.grid import DEFAULT_INTERPOLANT, check_refine
 from roadtex.profiles.profile import Profile
@@ -136,11 +134,9 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     shrink as the model interval grows, so the tol error there bounds the gain on every coarser
     model grid (doubled for safety); finer ones get the tighter tolerances tried (bound inf).
     """
-    heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
-    heights = heights[match(pilot.starts, pilot.pilot)]
     if k is None:
         k = pilot.refine if pilot.refine in tolerance_rungs(pilot) else max(tolerance_rungs(pilot))
-    levels, ok, _, _ = solve_levels(pilot, heights, pilot.dx, tol, k)
+    levels, ok, _, _ = pilot_segment_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made
     budget = pilot.bands["in_budget"].to_numpy() & ok
     gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
     return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.dx / k

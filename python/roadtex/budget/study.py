@@ -159,6 +159,10 @@ class Pilot:
     interpolant_spread: np.ndarray | None = None   # (bands,) what the sampling cannot tell (dB)
     band_method: Method = "dft"      # how the job computes band levels: the pilot's levels the same way
     interpolant: Interpolant = DEFAULT_INTERPOLANT   # the job's road between readings: the pilot solves the same
+    # (k, tol) -> solve_levels' result for the pilot segments at the file's dx (not the reference's
+    # rungs): a candidate and the tolerance effect that ask for the same solve share it
+    solved: dict[tuple[int, float], tuple[np.ndarray, np.ndarray, float, float]] = dataclasses.field(
+        default_factory=dict)
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -266,6 +270,16 @@ def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refin
     if keep is not None:
         keep[refine] = batch.pressure
     return levels, ok, seconds, solver_work(batch.iterations, model.shape[1])
+
+
+def pilot_segment_levels(pilot: Pilot, tol: float, refine: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """:func:`solve_levels` of the pilot segments at the file's dx, ``refine`` and ``tol``, solved
+    once per pilot (a candidate setting and the tolerance effect on the same rung are one solve)."""
+    key = (int(refine), float(tol))
+    if key not in pilot.solved:
+        heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
+        pilot.solved[key] = solve_levels(pilot, heights[match(pilot.starts, pilot.pilot)], pilot.dx, tol, refine)
+    return pilot.solved[key]
 
 
 def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
@@ -432,8 +446,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
     is_file_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
     if is_file_dx:
         texture = np.zeros(pilot.bands.height)
-        heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
-        heights = heights[match(pilot.starts, pilot.pilot)]
+        heights = np.empty((len(pilot.pilot), pilot.points))   # the pilot segments (solved by pilot_segment_levels)
         used, points = pilot.dx, pilot.points
     else:
         texture, heights, points = texture_errors(pilot, dx)
@@ -446,7 +459,8 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
             solved, seconds_per_metre, work_per_metre = pilot.sequence[refine]
             ok = np.ones(pilot.bands.height, bool)
         else:
-            solved, ok, seconds, work = solve_levels(pilot, heights, used, tol, refine)
+            solved, ok, seconds, work = (pilot_segment_levels(pilot, tol, refine) if is_file_dx
+                                         else solve_levels(pilot, heights, used, tol, refine))
             seconds_per_metre, work_per_metre = seconds / metres, work / metres
         errors = run_extreme(solved, pilot.levels, pilot.run_rows, PILOT_SPREAD_FACTOR) + pilot.reference_error
         errors = np.where(ok, errors, np.inf)
