@@ -92,8 +92,9 @@ def test_a_pressure_prolonged_is_linear_between_its_points_keeps_its_mean_and_wr
 
 
 def test_each_rung_of_the_pilots_reference_starts_from_the_last(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The reference's rungs k = 2, 4, ... start from the rung below (its pressures prolonged); the
-    first rung and the candidates solve as the job does (moduli chained)."""
+    """The reference's rungs k = 2, 4, ... start from the rung below (its pressures prolonged), the
+    interpolants' spread from the job's road on its grid; the first rung solves as the job does
+    (moduli chained)."""
     calls: list[tuple[float, int, tuple[int, ...] | None]] = []
     original = study.contact_many
 
@@ -106,8 +107,10 @@ def test_each_rung_of_the_pilots_reference_starts_from_the_last(monkeypatch: pyt
     profile = roadtex.synthetic_pavement("dense_asphalt", 1.5, 1e-3, seed=4)
     pilot = build_pilot(profile, youngs_moduli=MODULI, mean_pressure=P, poisson=0.5, segment_length=0.5,
                         n_segments=3, band_kind="third_octave", spike_alpha=None, max_iterations=2000, threads=1,
-                        max_refine=8, interpolants=False)
+                        max_refine=8)
     rungs = [(n, start) for tol, n, start in calls if tol == study.REFERENCE_TOL]
     assert pilot.refine >= 2 and [n for n, _ in rungs] == [500 * k for k in sorted(pilot.sequence)]
     assert rungs[0][1] is None
     assert all(start == (3, len(MODULI), n) for n, start in rungs[1:])
+    spread = [(n, start) for tol, n, start in calls if tol == study.SPREAD_TOL]
+    assert spread == [(500 * pilot.refine, (3, len(MODULI), 500 * pilot.refine))], spread

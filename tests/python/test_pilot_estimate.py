@@ -187,8 +187,8 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
     assert missed.height == 0 or measured, "a candidate missed at the loosest tol: its gain must be measured"
     assert measured and needed, (missed, measured)   # this road has misses (else the test shows nothing)
     assert all(k < choice.reference_refine for k in measured) or choice.reference_refine <= 2, (measured, choice)
-    # the rung measured is a candidate that missed here: its solve is the candidate's, made once
-    assert len(solves) == len(set(solves)) and all((0.5e-3, loosest, k) in solves for k in measured), solves
+    # every loose solve of the pilot segments is made once (a candidate on a rung measured shares it)
+    assert len(solves) == len(set(solves)), solves
     measured.clear()
     roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                            interpolants=False, tol_candidates=[1e-3])

@@ -127,8 +127,8 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     (m) that bound holds for.
 
     The tol error is measured on the pilot segments at the file's dx on rung ``k`` of the
-    reference's sequence (default: the finest within
-    :data:`~roadtex.budget.study.SPREAD_MAX_POINTS`, :func:`tolerance_rungs`), against the same
+    reference's sequence (default: the reference's own where it is one of :func:`tolerance_rungs`,
+    else the finest of them), against the same
     grid at tol 1e-10. The solver's criterion is a gap relative to the profile's peak-to-valley
     height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the level errors
     shrink as the model interval grows, so the tol error there bounds the gain on every coarser

@@ -340,7 +340,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                                                 keep=kept)
         last.clear()
         last.update(kept)
-        if interpolants and (k * pilot_heights.shape[1] <= SPREAD_MAX_POINTS or not spread_start):
+        if interpolants and k * pilot_heights.shape[1] <= SPREAD_MAX_POINTS:   # the spread's grid: the finest that fits
             spread_start.clear()
             spread_start.update(kept)
         pilot.sequence[k] = (levels, seconds / metres, work / metres)
@@ -446,12 +446,12 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
     is_file_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
     if is_file_dx:
         texture = np.zeros(pilot.bands.height)
-        heights = np.empty((len(pilot.pilot), pilot.points))   # the pilot segments (solved by pilot_segment_levels)
+        heights = None   # the pilot segments, solved by pilot_segment_levels
         used, points = pilot.dx, pilot.points
     else:
         texture, heights, points = texture_errors(pilot, dx)
         used = pilot.segment_length / points
-    metres = heights.shape[0] * pilot.segment_length
+    metres = (len(pilot.pilot) if heights is None else heights.shape[0]) * pilot.segment_length
     rows = []
     for tol in tols:
         is_reference = is_file_dx and tol == REFERENCE_TOL and refine == pilot.refine
