@@ -60,6 +60,10 @@ def test_initial_pressures_of_the_wrong_shape_or_sign_are_refused(roads) -> None
         roadtex.contact_many(cubic, dx, MODULI, P, initial_pressure=np.full(shape, -P))
     with pytest.raises(InvalidInputError, match=r"initial_pressure must be finite"):
         roadtex.contact_many(cubic, dx, MODULI, P, initial_pressure=np.full(shape, np.nan))
+    # one start per problem: a chain or a coarse start beside it would be silently ignored
+    for other in ({"warm_start": True}, {"coarse_start": 8}):
+        with pytest.raises(InvalidInputError, match=r"leave warm_start and coarse_start unset"):
+            roadtex.contact_many(cubic, dx, MODULI, P, initial_pressure=np.full(shape, P), **other)
 
 
 def test_the_pilot_spread_from_the_job_roads_pressures_matches_the_spread_solved_without_them() -> None:

@@ -154,7 +154,7 @@ def contact_many(
         initial_pressure: (segments, moduli, N) array of pressures (Pa, >= 0), each problem's start,
             typically a batch's ``pressure`` for the same readings joined by another road or solved
             to another tolerance on the same grid: each (segment, modulus) solve begins on that
-            contact set (``warm_start`` and ``coarse_start`` then do not apply). Results meet
+            contact set (with ``warm_start`` or ``coarse_start`` it is refused). Results meet
             ``tol`` by the same test as cold solves, within it of them, and stay bitwise the same
             whatever the thread count. Ignored by ``method="direct"``.
         Other arguments: as for :func:`contact`.
@@ -169,6 +169,9 @@ def contact_many(
     dx_f, p_f, nu_f = to_float(dx, "dx"), to_float(mean_pressure, "mean_pressure"), to_float(poisson, "poisson")
     warn_if_implausible_texture(heights, dx_f, "segments")
     warn_if_implausible_rubber(moduli, p_f)
+    if initial_pressure is not None and (warm_start or coarse is not None):
+        raise InvalidInputError("initial_pressure gives every problem its own start: leave warm_start and "
+                                "coarse_start unset with it")
     initial = None if initial_pressure is None else _initial_rows(initial_pressure, heights.shape, moduli.size)
     pressure, envelope, iterations, residual, converged = _core.solve_many(
         heights, dx_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
