@@ -297,3 +297,38 @@ def test_a_windows_estimate_covers_the_whole_tile_on_the_model_grid(tmp_path: Pa
         actual = gap(job[model], finest[model]).max(axis=(0, 1))
         estimate = stated.filter(pl.col("model") == model)["level_error_db"].to_numpy()
         assert np.all(estimate >= actual - 0.02), (model, estimate / actual)
+
+
+def test_the_ladders_references_are_unchained_and_the_candidates_solved_as_the_job(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The pilot's reference rungs (tol 1e-10) solve each modulus from its own start, the moduli in
+    parallel; a candidate tolerance is solved as the job solves (each tile's moduli chained), so that
+    its error is the job's. The estimates are those of references chained as well, to a millionth of
+    a dB: at 1e-10 only the answers count, not how the solver got there."""
+    surface = synthetic_surface("dense_asphalt", LENGTH, 0.008, DX, seed=5)
+    tile = surface.heights - surface.heights.mean()
+    lines = remove_lines(tile)[0]
+    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
+    calls: list[tuple[float, bool]] = []
+
+    def spy(*args: object, **kwargs: object) -> object:
+        calls.append((float(kwargs["tol"]), bool(kwargs["warm_start"])))   # type: ignore[arg-type]
+        return contact_surface_many(*args, **kwargs)   # type: ignore[arg-type]
+
+    def pilot() -> areal.SurfaceErrors:
+        return areal.surface_level_errors(
+            tile[None], lines[None], (tile - lines)[None], np.arange(8), DX, DX, bands=bands,
+            in_budget=np.ones(bands.size, bool), run_rows=16, youngs_moduli=MODULI, mean_pressure=PRESSURE,
+            poisson=0.5, tols=(1e-4,), budget_db=0.2, band_kind="third_octave", band_method="dft",
+            max_iterations=2000, threads=None, refine=4)
+
+    monkeypatch.setattr(areal, "contact_surface_many", spy)
+    unchained = pilot()
+    # the forced k's two rungs (4 and 8) at the reference tol, then the candidate at 1e-4
+    assert sorted(calls) == [(areal.REFERENCE_TOL, False), (areal.REFERENCE_TOL, False), (1e-4, True)]
+    original = areal._areal_levels
+    monkeypatch.setattr(areal, "_areal_levels", lambda *a: original(*a[:9], True))   # every solve chained
+    chained = pilot()
+    for model in areal.MODELS:
+        np.testing.assert_allclose(unchained.level_error_db[model], chained.level_error_db[model], rtol=0, atol=1e-6)
+    assert (unchained.refine, unchained.tol) == (chained.refine, chained.tol)
