@@ -392,3 +392,37 @@ def test_unreported_bands_and_null_levels(results: Path, altered: dict, tmp_path
     changed = full.filter((pl.col("pressure_level") - pl.col("pressure_level_null")).abs() > 1e-9)
     assert changed.select("run_id", "band").rows() == [(band["run_id"], 21)]
     assert altered["report"].figures["pressure_vs_texture"][0].stat().st_size > 10_000
+
+
+def test_a_figure_is_laid_out_once_and_its_svg_keeps_the_pngs_layout(tmp_path: Path) -> None:
+    """save_png_and_svg: the PNG's save lays the figure out (a layout pass, then the draw), the SVG's
+    draws once with that layout, no second pass: three draws in all; the SVG's axes sit where the
+    PNG's layout put them."""
+    from matplotlib.figure import Figure
+
+    from roadtex.report.data import pyplot, save_png_and_svg
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(6, 3), layout="constrained")
+    for ax in axes:
+        ax.plot([0, 1], [0, 1], label="a line with a long label")
+        ax.set_ylabel("level (dB re 1e-6 m)")
+    fig.legend(loc="outside right upper")
+    draws: list[str] = []
+    original = Figure.draw
+
+    def counting(self: Figure, renderer: object) -> None:
+        draws.append(type(renderer).__name__)
+        original(self, renderer)
+
+    Figure.draw = counting   # type: ignore[method-assign]
+    try:
+        png = save_png_and_svg(fig, tmp_path / "figure.svg")
+    finally:
+        Figure.draw = original   # type: ignore[method-assign]
+    plt.close(fig)
+    assert len(draws) == 3, draws
+    assert png.startswith(b"\x89PNG") and (tmp_path / "figure.svg").read_text().lstrip().startswith("<?xml")
+    assert fig.get_layout_engine() is None
+    laid_out = [ax.get_position().bounds for ax in axes]
+    assert laid_out[0][0] > 0.05 and laid_out[1][0] + laid_out[1][2] < 0.95   # moved by the layout, legend outside
