@@ -15,6 +15,7 @@ import pytest
 
 from report_pages import WellFormed, column, parse, text_without_images
 from roadtex.archive import ProcessingOptions, process
+from roadtex.budget.study import REFERENCE_TOL
 from roadtex.demo import write_synthetic_archive
 from roadtex.report import build_report, draw_figures
 from roadtex.report.data import load_results, plain, pyplot
@@ -130,10 +131,10 @@ def test_chosen_point_is_plotted_at_the_chosen_setting(drawn, results: Path) -> 
         assert labels == sorted(plain(dx * 1e3) + (f"×{k}" if k > 1 else "") for dx, k in mine.select("dx", "refine").rows())
         assert mine["refine"].max() > 1
         reference = mine.filter(pl.col("reference"))
-        assert reference.height == 1 and reference["refine"][0] == mine["refine"].max() and reference["tol"][0] == 1e-10
+        assert reference.height == 1 and reference["refine"][0] == mine["refine"].max() and reference["tol"][0] == REFERENCE_TOL
         title = ax.get_title().replace("\n", " ")
         assert f"chosen: {setting_said(chosen['dx'][0], chosen['refine'][0], '10⁻⁸')}" in title, title
-        assert f"reference: {setting_said(reference['dx'][0], reference['refine'][0], '10⁻¹⁰')}" in title, title
+        assert f"reference: {setting_said(reference['dx'][0], reference['refine'][0], '10⁻⁶')}" in title, title
         assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
     assert "s/km" in fig.axes[0].get_ylabel()
 

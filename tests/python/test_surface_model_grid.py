@@ -15,6 +15,7 @@ from scipy.interpolate import RegularGridInterpolator
 from roadtex.archive import ProcessingOptions, process
 from roadtex.archive.surface_run import line_rows
 from roadtex.budget import areal
+from roadtex.budget.estimate import TINY_DIFFERENCE_DB
 from roadtex.budget.noise import in_budget
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError
 from roadtex.models.contact import contact_many
@@ -330,5 +331,7 @@ def test_the_ladders_references_are_unchained_and_the_candidates_solved_as_the_j
     monkeypatch.setattr(areal, "_areal_levels", lambda *a: original(*a[:9], True))   # every solve chained
     chained = pilot()
     for model in areal.MODELS:
-        np.testing.assert_allclose(unchained.level_error_db[model], chained.level_error_db[model], rtol=0, atol=1e-6)
+        # the reference tol (1e-6) leaves the levels within 2e-4 dB of converged, however started
+        np.testing.assert_allclose(unchained.level_error_db[model], chained.level_error_db[model], rtol=0,
+                                   atol=TINY_DIFFERENCE_DB)
     assert (unchained.refine, unchained.tol) == (chained.refine, chained.tol)

@@ -150,7 +150,8 @@ RUN_COLUMNS: Columns = {
                                                    # models, from their areal pilot)
     "within_budget": (pl.Boolean(), None),        # null without budget
     "speedup": (pl.Float64(), "1"),               # finest setting's solver work / this one's (the pilots' count;
-                                                  # surface runs: tol 1e-10 against the job's, same spacings)
+                                                  # surface runs: the reference tol, 1e-6 (1e-10 until
+                                                  # 0.5.4), against the job's, same spacings)
     "time_saved_fraction": (pl.Float64(), "1"),   # share of the finest setting's solve time saved (1 - 1/speedup)
     "error_source": (pl.String(), None),          # where the stated errors come from: its group's pilot, or (no pilot
                                                   # of its group and sampling) the largest of any group; null: no budget
@@ -190,7 +191,8 @@ SURFACE_ERROR_COLUMNS: Columns = {                # per surface run (runs/<id>/l
     "band": (pl.Int64(), "1"),
     "in_budget": (pl.Boolean(), None),            # a tyre/road noise band the budget applies to
     "level_error_db": (pl.Float64(), "dB"),       # upper estimate of the numerical error of the model's levels
-    "speedup": (pl.Float64(), "1"),               # solver work at tol 1e-10 / at the job's tol (both models)
+    "speedup": (pl.Float64(), "1"),               # solver work at the reference tol (1e-6; 1e-10 until
+                                                  # 0.5.4) / at the job's tol (both models)
     "pilot_tiles": (pl.Int64(), "count"),         # tiles the areal pilot solved
     "refine_along": (pl.Int64(), "count"),        # the model grid's k along the road the estimate is for
     "refine_across": (pl.Int64(), "count"),       # ... and across it

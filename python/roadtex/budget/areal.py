@@ -9,7 +9,7 @@ run's do (:mod:`roadtex.budget.study`), and its ``k`` and solver tolerance are c
 budget allows, from a few *pilot* tiles spread evenly along the run:
 
 1. **The k ladder**: each pilot tile (and its analysed rows, for the line model) solved at the
-   reference tolerance (1e-10) on model grids :data:`REFINE_LADDER` (1, 2, 4, 8) times finer each
+   reference tolerance (1e-6, :data:`roadtex.budget.study.REFERENCE_TOL`) on model grids :data:`REFINE_LADDER` (1, 2, 4, 8) times finer each
    way (only ``k`` and ``2 k`` when ``refine`` forces ``k``), each modulus from its own nested start
    and the moduli in parallel (not chained as the job solves them: at this tolerance that is
    quicker, and only the answers count). Refining along the road alone is not
@@ -26,7 +26,7 @@ budget allows, from a few *pilot* tiles spread evenly along the run:
    against ``2 k``. A rung whose model grid of a whole tile would exceed :data:`MAX_MODEL_POINTS`
    is not chosen (it still serves as the reference).
 3. **Tolerance**: the tiles solved at the chosen ``k`` at each candidate tolerance, loosest first
-   (1e-3, 1e-4, 1e-6, 1e-8, 1e-10; only the given one when the job's tol was given); the difference from
+   (1e-3, 1e-4, 1e-6; only the given one when the job's tol was given); the difference from
    the reference at that ``k``. The first candidate within the budget is the run's.
 4. **Estimate** per (model, band): the differences of the pilot rows extended to every row of the
    run (:func:`roadtex.budget.study.extreme`), the tolerance's times ``SPREAD_FACTOR``, plus the
@@ -99,7 +99,7 @@ WINDOW_FACTOR = 1.5
 
 #: Largest number of points on the pilot's finest rung over all pilot windows (``top**2`` per point
 #: of a window, ``top`` the ladder's finest k): the pilot's cost, about that many points solved per
-#: modulus at tol 1e-10 (the coarser rungs add a third). 2^19: a 1 mm tile 0.5 m long is piloted on
+#: modulus at the reference tol (the coarser rungs add a third). 2^19: a 1 mm tile 0.5 m long is piloted on
 #: a 16-row window at k = 8 (the demo's 1 mm surfaces: 72 s for the three under load, against 137 s
 #: with 2^20 and 32 rows; stated worst errors 0.57 to 0.93 dB against 0.59 to 0.95, both with a
 #: window around the middle row).

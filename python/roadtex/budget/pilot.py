@@ -60,7 +60,7 @@ class BudgetChoice:
         budget_bands: the band numbers the budget applies to (see :mod:`roadtex.budget.noise`).
         worst_error_db: the largest ``band_error_db`` over the budget bands (dB).
         seconds_per_metre: measured solve time at (dx, tol), every modulus, per metre of road (s/m).
-        finest_seconds_per_metre: the same at the reference (file dx refined K times, tol 1e-10) (s/m).
+        finest_seconds_per_metre: the same at the reference (file dx refined K times, the reference tol) (s/m).
         pilot_seconds: wall time of the whole pilot (s).
         forced: whether dx or tol was forced.
         study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
@@ -129,7 +129,7 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     The tol error is measured on the pilot segments at the file's dx on rung ``k`` of the
     reference's sequence (default: the reference's own where it is one of :func:`tolerance_rungs`,
     else the finest of them), against the same
-    grid at tol 1e-10. The solver's criterion is a gap relative to the profile's peak-to-valley
+    grid at the reference tol. The solver's criterion is a gap relative to the profile's peak-to-valley
     height, and a gap error moves a pressure by about E* gap / dx: at a fixed tol the level errors
     shrink as the model interval grows, so the tol error there bounds the gain on every coarser
     model grid (doubled for safety); finer ones get the tighter tolerances tried (bound inf).

@@ -294,7 +294,7 @@ def surface_section(results: Results) -> list[str]:
     if errors.height:
         section += ["<p>The numerical error of those levels: per pavement and band, the largest upper estimate "
                     "over its surface runs (bands.parquet level_error_db, from each run's own areal pilot: a few "
-                    "tiles solved again at tol 1e-10 and at half the spacing). A line-minus-areal difference "
+                    "tiles solved again to convergence and on finer grids). A line-minus-areal difference "
                     "smaller than the two models' errors together is not resolved by the data's sampling.</p>",
                     html_table(errors, classes="surface-errors")]
     else:
