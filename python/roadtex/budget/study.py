@@ -90,10 +90,10 @@ from roadtex.spectra.levels import Method, band_levels
 #: and surfaces. 1e-6 since 0.5.5 (1e-10 before): the levels are the converged ones to far below
 #: the budget's resolution, for a fifth less solver work. Measured (issue 39 / 40, 2026-11-28) against
 #: the same solves at 1e-10: 12 segments of the 1 km bench archive at 0.5 mm (4 moduli, k = 2 to 16)
-#: levels within 1.8e-4 dB, 11 to 18 iterations against 16 to 24 (1e-8: 5e-7 dB, 13.5 to 21); the
-#: demo's three 1 mm surface windows at k = 4 and 8 within 1.8e-4 dB, 30 % less work (k = 8: 9.7 s
-#: against 12.2 s). Through the job (CAPTIF as measured, the 1 km archive, the demo's surfaces) the
-#: same k and tol everywhere, the same levels, the stated errors moved by at most 6e-5 dB.
+#: levels within 1.2e-4 dB, 11 to 18 iterations against 16 to 24 (1e-8: 5e-7 dB, 13.5 to 21); the
+#: demo's three 1 mm surface windows at k = 4 and 8 within 1.8e-4 dB, 28 to 38 % less solver work
+#: (k = 8: 9.7 s against 12.2 s). Through the job (CAPTIF as measured, the 1 km archive, the demo's
+#: surfaces) the same k and tol everywhere, the same levels, the stated errors moved by at most 6e-5 dB.
 REFERENCE_TOL = 1e-6
 
 #: Candidate solver tolerances, loosest first (lines and surfaces), down to the reference's own
