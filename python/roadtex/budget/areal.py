@@ -9,12 +9,13 @@ run's do (:mod:`roadtex.budget.study`), and its ``k`` and solver tolerance are c
 budget allows, from a few *pilot* tiles spread evenly along the run:
 
 1. **The k ladder**: each pilot tile (and its analysed rows, for the line model) solved at the
-   reference tolerance (1e-6, :data:`roadtex.budget.study.REFERENCE_TOL`) on model grids :data:`REFINE_LADDER` (1, 2, 4, 8) times finer each
-   way (only ``k`` and ``2 k`` when ``refine`` forces ``k``), each modulus from its own nested start
-   and the moduli in parallel (not chained as the job solves them: at this tolerance that is
-   quicker, and only the answers count). Refining along the road alone is not
-   enough on 1 mm surfaces: (8, 1) still errs by 4 to 5 dB where (8, 8) errs by 0.3 dB
-   (``benches/surface_model_grid.py``; docs/guide/model-grid.md, "Surface runs").
+   reference tolerance (1e-6, :data:`roadtex.budget.study.REFERENCE_TOL`) on model grids
+   :data:`REFINE_LADDER` (1, 2, 4, 8) times finer each way (only ``k`` and ``2 k`` when
+   ``refine`` forces ``k``), each modulus from its own nested start and the moduli in parallel
+   (not chained as the job solves them: at this tolerance that is quicker, and only the answers
+   count). Refining along the road alone is not enough on 1 mm surfaces: (8, 1) still errs by 4
+   to 5 dB where (8, 8) errs by 0.3 dB (``benches/surface_model_grid.py``;
+   docs/guide/model-grid.md, "Surface runs").
 2. **Richardson over the ladder**: the converged answer is taken as the finest rung ``L(top)``,
    whose own error is a factor times |L(top) - L(top / 2)|: 1 / (r - 1) for the shrink r of the
    last two steps (the median over levels and bands, :func:`tail_factor`), between
