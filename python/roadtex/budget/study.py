@@ -401,8 +401,9 @@ SPREAD_MAX_POINTS = 2 ** 15
 
 #: Tolerance of the other roads' solves of the interpolants' spread: the spread is 0.1 to 4 dB, and
 #: at 1e-6 the levels move by under 1e-5 dB from their 1e-10 solves for a quarter less solver work
-#: (the 1 km bench archive's cement concrete at k = 16 and dense asphalt at k = 8, issue 39).
-SPREAD_TOL = 1e-6
+#: (the 1 km bench archive's cement concrete at k = 16 and dense asphalt at k = 8, issue 39). Since
+#: 0.5.5 the reference is solved at that tolerance too: the spread's roads are solved as the reference is.
+SPREAD_TOL = REFERENCE_TOL
 
 
 def interpolant_spread(pilot: Pilot, heights: np.ndarray,
