@@ -21,6 +21,18 @@ pub trait Compliance: Sync {
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
     /// out ~ C^-1 * gap on zero-mean input: the inverse of the periodic kernel (|k| E* / 2 like).
     fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut Self::Scratch);
+    /// [`Compliance::precondition`] in low precision where the operator has one (single-precision
+    /// transforms, about 1e-7 relative rounding: the preconditioner only steers the iteration, so
+    /// its rounding moves the iteration count, never the converged answer's check), else the same.
+    fn precondition_low(&self, gap: &[f64], out: &mut [f64], scratch: &mut Self::Scratch) {
+        self.precondition(gap, out, scratch);
+    }
+    /// [`Compliance::displacement`] in low precision where the operator has one (see
+    /// [`Compliance::precondition_low`]), else the same: for the rough sweeps and loose
+    /// tolerances only, whose stopping tests are far above its rounding.
+    fn displacement_low(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch) {
+        self.displacement(pressure, out, scratch);
+    }
     /// The dense matrix entry C[i][j] (m per unit pressure / E*): the displacement at element i of
     /// unit pressure on element j. Used by the dense solver.
     fn dense_entry(&self, i: usize, j: usize) -> f64;

@@ -95,7 +95,7 @@ fn periodic_sum_tends_to_the_half_space_far_from_the_images() {
 #[test]
 fn circulant_product_matches_a_direct_convolution() {
     let (ny, nx) = (6usize, 10usize);
-    let circ = Circulant2::new(ny, nx);
+    let circ = Circulant2::<f64>::new(ny, nx);
     let column: Vec<f64> = (0..ny * nx)
         .map(|k| {
             let (y, x) = ((k / nx).min(ny - k / nx), (k % nx).min(nx - k % nx));

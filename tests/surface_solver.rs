@@ -1,6 +1,7 @@
 //! The surface solver: CG against the dense direct solve, the flat and stiff limits, and
 //! determinism of the parallel batch.
 
+use roadtex::compliance::Compliance;
 use roadtex::surface::synthetic::self_affine_surface;
 use roadtex::surface::{solve_surface, solve_surfaces, Grid, SurfaceSolver, SurfaceWorkspace};
 use roadtex::{KernelKind, Material, Method, SolverOptions};
@@ -72,4 +73,43 @@ fn workspace_counts_the_transform_pairs_of_its_solves() {
     let second = solver.solve_from(&mut workspace, &z, rubber, 2e5, None).unwrap();
     assert_eq!(second, first);
     assert_eq!(workspace.fft_pairs(), 2 * after_one);
+}
+
+/// The residual of `pressure` (Pa) on heights `z` (m) recomputed here in double precision, as the
+/// solver defines it: the gap with the rigid approach that makes it zero-mean on the contact set,
+/// worst |gap| on the set and worst penetration off it, over the peak-to-valley height.
+fn recomputed_residual(solver: &SurfaceSolver, z: &[f64], pressure: &[f64], e_star: f64) -> f64 {
+    let op = solver.periodic_operator().unwrap();
+    let p: Vec<f64> = pressure.iter().map(|&x| x / e_star).collect();
+    let mut u = vec![0.0; p.len()];
+    op.displacement(&p, &mut u, &mut op.scratch());
+    let contact: Vec<usize> = (0..p.len()).filter(|&i| p[i] > 0.0).collect();
+    let approach = -contact.iter().map(|&i| u[i] - z[i]).sum::<f64>() / contact.len() as f64;
+    let gap = |i: usize| u[i] - z[i] + approach;
+    let worst = (0..p.len()).map(|i| if p[i] > 0.0 { gap(i).abs() } else { (-gap(i)).max(0.0) }).fold(0.0, f64::max);
+    let (lo, hi) = z.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    worst / (hi - lo)
+}
+
+#[test]
+fn single_precision_steers_the_iteration_and_double_precision_checks_it() {
+    // Loose tolerances take every steering product in single precision, tight ones the
+    // preconditioner's and the rough sweeps' only; either way the returned solution meets tol on a
+    // double-precision product computed here, independently of the solver's own check.
+    let grid = Grid { ny: 64, nx: 64, dx: 1e-3, dy: 1e-3 };
+    let z: Vec<f64> = self_affine_surface(64, 0.064, 0.8, 0.1, 4).iter().map(|h| 0.01 * h).collect();
+    let rubber = Material::new(4e6, 0.5).unwrap();
+    let mut low_shares = Vec::new();
+    for tol in [1e-4, 1e-8] {
+        let solver = SurfaceSolver::new(grid, SolverOptions { tol, ..Default::default() }).unwrap();
+        let mut workspace = SurfaceWorkspace::default();
+        let solution = solver.solve_from(&mut workspace, &z, rubber, 2e5, None).unwrap();
+        assert!(solution.converged);
+        let (low, all) = (workspace.low_precision_pairs(), workspace.fft_pairs());
+        assert!(low > 0 && low < all, "tol {tol}: {low} single-precision pairs of {all}");
+        low_shares.push(low as f64 / all as f64);
+        let residual = recomputed_residual(&solver, &z, &solution.pressure, rubber.plane_strain_modulus());
+        assert!(residual <= tol, "tol {tol}: recomputed residual {residual:e} (solver: {:e})", solution.residual);
+    }
+    assert!(low_shares[0] > low_shares[1], "single-precision shares {low_shares:?}");
 }

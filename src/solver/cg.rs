@@ -89,6 +89,13 @@ const UNSETTLED: usize = 20;
 const SMALL_UNSETTLED_DIM: usize = 256;
 const MAX_UNSETTLED_N: usize = 1 << 18;
 
+/// Tolerances at or above this solve every product that steers the iteration (the inner CG's
+/// C d, the warm-up steps') in low precision ([`Compliance::displacement_low`], single-precision
+/// transforms where the operator has them, about 1e-7 of the product's size); tighter ones only
+/// the rough sweeps'. Every stopping test stands on a fresh double-precision product, and a precise
+/// sweep that misses tol on a settled set is solved again in double precision.
+const LOW_PRECISION_TOL: f64 = 1e-5;
+
 /// Most points whose pressure is dropped from the set between sweeps for which C p is updated
 /// column by column (O(N) each) instead of by a fresh FFT product.
 const MAX_COLUMN_UPDATES: usize = 24;
@@ -208,6 +215,7 @@ pub(crate) fn solve<Op: Compliance>(
         last_changes: 0,
         coarse_is_last: false,
         coarse_reused: false,
+        low_products: problem.tol >= LOW_PRECISION_TOL,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -238,6 +246,9 @@ struct Context<'a, Op: Compliance> {
     /// an earlier solve), and whether [`Context::coarse_space`] returned it again.
     coarse_is_last: bool,
     coarse_reused: bool,
+    /// Whether the precise sweeps' and warm-up steps' C d may be low-precision products (see
+    /// [`LOW_PRECISION_TOL`]; cleared when a precise sweep misses tol).
+    low_products: bool,
     w: &'a mut Work<Op::Scratch>,
 }
 
@@ -373,7 +384,10 @@ impl<Op: Compliance> Context<'_, Op> {
                 }
                 known = true;
                 fresh = true;
-                if !rough {
+                if !rough && self.low_products {
+                    // Solved with low-precision products: again in double precision.
+                    self.low_products = false;
+                } else if !rough {
                     // A precise solve on a settled set missed tol. The coarse matrix is assembled
                     // from second prefix sums of the kernel (PairSums), differences of large
                     // numbers whose rounding can cap the attainable accuracy, and its far entries
@@ -516,14 +530,15 @@ impl<Op: Compliance> Context<'_, Op> {
         let reduction =
             if self.pair_sums.is_some() && self.z.len() <= SMALL_PROFILE { SMALL_PROFILE_ROUGH_REDUCTION } else { ROUGH_REDUCTION };
         let stop = if how.rough { how.abs_tol.max(reduction * start_norm) } else { how.abs_tol };
+        let low = how.rough || self.low_products;
 
         let mut rho_before = 0.0;
         let mut iterations = 0;
         // max|r|, kept up to date by the update pass (no separate pass per iteration).
         let mut residual_norm = start_norm;
         while residual_norm > stop && iterations < how.max_iterations {
-            // y = M r on A, zero-sum.
-            op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            // y = M r on A, zero-sum (M in low precision where the operator has it).
+            op.precondition_low(&w.residual, &mut w.preconditioned, &mut w.scratch);
             // P^T y = y - Z E^-1 Z^T C y.
             if let Some(coarse) = covering {
                 deflate_covering(op, w, coarse, count);
@@ -554,7 +569,11 @@ impl<Op: Compliance> Context<'_, Op> {
             // y becomes `previous` (the next precondition overwrites all of `preconditioned`).
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
-            op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            if low {
+                op.displacement_low(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            } else {
+                op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            }
             let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask_bits);
             let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {

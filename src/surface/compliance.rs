@@ -13,6 +13,8 @@ use crate::kernel::KernelKind;
 pub struct SurfacePeriodic {
     grid: Grid,
     circulant: Circulant2,
+    /// The same products in single precision ([`Compliance::precondition_low`]).
+    low: Circulant2<f32>,
     spectrum: Vec<f64>,
     inverse_spectrum: Vec<f64>,
     /// Real-space coefficients C[(iy - jy) mod ny][(ix - jx) mod nx], built on first use (dense
@@ -24,7 +26,14 @@ impl SurfacePeriodic {
     pub fn new(grid: Grid, kind: KernelKind) -> Self {
         let spectrum = periodic_spectrum(&grid, kind);
         let inverse_spectrum = spectrum.iter().map(|&l| if l > 0.0 { 1.0 / l } else { 0.0 }).collect();
-        Self { grid, circulant: Circulant2::new(grid.ny, grid.nx), spectrum, inverse_spectrum, coefficients: OnceLock::new() }
+        Self {
+            grid,
+            circulant: Circulant2::<f64>::new(grid.ny, grid.nx),
+            low: Circulant2::<f32>::new(grid.ny, grid.nx),
+            spectrum,
+            inverse_spectrum,
+            coefficients: OnceLock::new(),
+        }
     }
 
     /// Eigenvalues in the half-spectrum layout (index qx ny + qy), m per unit pressure / E*.
@@ -45,27 +54,48 @@ impl SurfacePeriodic {
     }
 }
 
+/// Scratch of one thread for [`SurfacePeriodic`]: double- and single-precision products.
+pub struct SurfacePeriodicScratch {
+    full: Circulant2Scratch,
+    low: Circulant2Scratch<f32>,
+}
+
+impl SurfacePeriodicScratch {
+    /// Single-precision 2-D FFT pairs applied so far (included in [`Compliance::fft_pairs`]).
+    pub fn low_pairs(&self) -> u64 {
+        self.low.pairs()
+    }
+}
+
 impl Compliance for SurfacePeriodic {
-    type Scratch = Circulant2Scratch;
+    type Scratch = SurfacePeriodicScratch;
 
     fn len(&self) -> usize {
         self.grid.len()
     }
 
-    fn scratch(&self) -> Circulant2Scratch {
-        self.circulant.scratch()
+    fn scratch(&self) -> SurfacePeriodicScratch {
+        SurfacePeriodicScratch { full: self.circulant.scratch(), low: self.low.scratch() }
     }
 
-    fn fft_pairs(scratch: &Circulant2Scratch) -> u64 {
-        scratch.pairs()
+    fn fft_pairs(scratch: &SurfacePeriodicScratch) -> u64 {
+        scratch.full.pairs() + scratch.low.pairs()
     }
 
-    fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Circulant2Scratch) {
-        self.circulant.apply(&self.spectrum, pressure, out, scratch);
+    fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut SurfacePeriodicScratch) {
+        self.circulant.apply(&self.spectrum, pressure, out, &mut scratch.full);
     }
 
-    fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut Circulant2Scratch) {
-        self.circulant.apply(&self.inverse_spectrum, gap, out, scratch);
+    fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut SurfacePeriodicScratch) {
+        self.circulant.apply(&self.inverse_spectrum, gap, out, &mut scratch.full);
+    }
+
+    fn precondition_low(&self, gap: &[f64], out: &mut [f64], scratch: &mut SurfacePeriodicScratch) {
+        self.low.apply(&self.inverse_spectrum, gap, out, &mut scratch.low);
+    }
+
+    fn displacement_low(&self, pressure: &[f64], out: &mut [f64], scratch: &mut SurfacePeriodicScratch) {
+        self.low.apply(&self.spectrum, pressure, out, &mut scratch.low);
     }
 
     fn dense_entry(&self, i: usize, j: usize) -> f64 {
@@ -107,14 +137,14 @@ pub struct SurfaceFiniteScratch {
     embedded: Circulant2Scratch,
     padded: Vec<f64>,
     padded_out: Vec<f64>,
-    periodic: Circulant2Scratch,
+    periodic: SurfacePeriodicScratch,
 }
 
 impl SurfaceFinite {
     pub fn new(grid: Grid) -> Self {
         Self {
             grid,
-            embedded: Circulant2::new(2 * grid.ny, 2 * grid.nx),
+            embedded: Circulant2::<f64>::new(2 * grid.ny, 2 * grid.nx),
             embedded_spectrum: finite_embedded_spectrum(&grid),
             periodic: SurfacePeriodic::new(grid, KernelKind::Element),
             coefficients: OnceLock::new(),
@@ -134,7 +164,7 @@ impl Compliance for SurfaceFinite {
     type Scratch = SurfaceFiniteScratch;
 
     fn fft_pairs(scratch: &SurfaceFiniteScratch) -> u64 {
-        scratch.embedded.pairs() + scratch.periodic.pairs()
+        scratch.embedded.pairs() + SurfacePeriodic::fft_pairs(&scratch.periodic)
     }
 
     fn len(&self) -> usize {
@@ -165,6 +195,10 @@ impl Compliance for SurfaceFinite {
 
     fn precondition(&self, gap: &[f64], out: &mut [f64], s: &mut SurfaceFiniteScratch) {
         self.periodic.precondition(gap, out, &mut s.periodic);
+    }
+
+    fn precondition_low(&self, gap: &[f64], out: &mut [f64], s: &mut SurfaceFiniteScratch) {
+        self.periodic.precondition_low(gap, out, &mut s.periodic);
     }
 
     fn dense_entry(&self, i: usize, j: usize) -> f64 {

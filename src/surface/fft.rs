@@ -20,40 +20,73 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
-use rustfft::{Fft, FftPlanner};
+use rustfft::{Fft, FftNum, FftPlanner};
 
 /// Grids of at least this many points transform their rows and columns in parallel (rayon):
 /// each row pair and column block is transformed by the same sequential code whichever thread
 /// runs it, so results are bitwise the same whatever the thread count.
 const PARALLEL_MIN: usize = 1 << 15;
 
+/// The precision the transforms run in: `f64`, or `f32` for the contact solver's low-precision
+/// products (`crate::compliance::Compliance::precondition_low`): input, output and multipliers
+/// stay `f64`, converted as the rows are packed and unpacked.
+pub trait Real: FftNum + Default + Into<f64> {
+    fn of(x: f64) -> Self;
+    /// Runs `task` with this thread's task buffers of this precision.
+    #[doc(hidden)]
+    fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R;
+}
+
+thread_local! {
+    static BUFFERS_F64: std::cell::RefCell<TaskBuffers<f64>> = const { std::cell::RefCell::new(TaskBuffers::EMPTY) };
+    static BUFFERS_F32: std::cell::RefCell<TaskBuffers<f32>> = const { std::cell::RefCell::new(TaskBuffers::EMPTY) };
+}
+
+impl Real for f64 {
+    fn of(x: f64) -> Self {
+        x
+    }
+    fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R {
+        BUFFERS_F64.with(|cell| task(&mut cell.borrow_mut()))
+    }
+}
+
+impl Real for f32 {
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+    fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R {
+        BUFFERS_F32.with(|cell| task(&mut cell.borrow_mut()))
+    }
+}
+
 #[derive(Clone)]
-pub struct Circulant2 {
+pub struct Circulant2<T: Real = f64> {
     ny: usize,
     nx: usize,
     /// Distance between columns in a gathered block: ny plus a little padding, so that a
     /// power-of-two ny does not map every column to the same cache sets.
     stride: usize,
-    row_forward: Arc<dyn Fft<f64>>,
-    row_inverse: Arc<dyn Fft<f64>>,
-    column_forward: Arc<dyn Fft<f64>>,
-    column_inverse: Arc<dyn Fft<f64>>,
+    row_forward: Arc<dyn Fft<T>>,
+    row_inverse: Arc<dyn Fft<T>>,
+    column_forward: Arc<dyn Fft<T>>,
+    column_inverse: Arc<dyn Fft<T>>,
     /// In-place scratch every plan can work with (the largest of theirs).
     fft_scratch_len: usize,
 }
 
 /// Scratch buffers of one thread for [`Circulant2`] products.
-pub struct Circulant2Scratch {
+pub struct Circulant2Scratch<T: Real = f64> {
     /// Row spectra, row-major: ny x (nx/2 + 1).
-    rows: Vec<Complex<f64>>,
+    rows: Vec<Complex<T>>,
     /// The serial products' task buffers (empty for a grid transformed in parallel, whose tasks
     /// hold their own).
-    buffers: TaskBuffers,
+    buffers: TaskBuffers<T>,
     /// 2-D FFT pairs applied with this scratch (a cost counter, as the line solver's).
     pairs: u64,
 }
 
-impl Circulant2Scratch {
+impl<T: Real> Circulant2Scratch<T> {
     /// 2-D FFT pairs (circulant products) applied so far with this scratch.
     pub fn pairs(&self) -> u64 {
         self.pairs
@@ -61,21 +94,21 @@ impl Circulant2Scratch {
 }
 
 /// The buffers of one task (a row chunk or a column block), or of a serial product.
-struct TaskBuffers {
+pub struct TaskBuffers<T> {
     /// Two rows packed as one complex row (nx).
-    pair: Vec<Complex<f64>>,
+    pair: Vec<Complex<T>>,
     /// One block of columns, `stride` apart.
-    block: Vec<Complex<f64>>,
-    fft_scratch: Vec<Complex<f64>>,
+    block: Vec<Complex<T>>,
+    fft_scratch: Vec<Complex<T>>,
 }
 
-impl TaskBuffers {
+impl<T> TaskBuffers<T> {
     const EMPTY: Self = TaskBuffers { pair: Vec::new(), block: Vec::new(), fft_scratch: Vec::new() };
 }
 
-impl Circulant2 {
+impl<T: Real> Circulant2<T> {
     pub fn new(ny: usize, nx: usize) -> Self {
-        let mut planner = FftPlanner::<f64>::new();
+        let mut planner = FftPlanner::<T>::new();
         let plans =
             [planner.plan_fft_forward(nx), planner.plan_fft_inverse(nx), planner.plan_fft_forward(ny), planner.plan_fft_inverse(ny)];
         let fft_scratch_len = plans.iter().map(|plan| plan.get_inplace_scratch_len()).max().unwrap_or(0);
@@ -107,7 +140,7 @@ impl Circulant2 {
 
     /// Makes `b` large enough for this grid's tasks with `columns` columns a block (never
     /// smaller: a thread's buffers serve grids of any size in turn).
-    fn fit(&self, b: &mut TaskBuffers, columns: usize) {
+    fn fit(&self, b: &mut TaskBuffers<T>, columns: usize) {
         let zero = Complex::default();
         b.pair.resize(self.nx, zero);
         if b.block.len() < columns * self.stride {
@@ -121,18 +154,14 @@ impl Circulant2 {
     /// Runs `task` with this thread's task buffers, fitted to this grid and `columns` columns a
     /// block: kept between products (a fresh set per rayon split zeroed some 8 MB a product at
     /// 1024^2). Their contents never reach a result: every entry is written before it is read.
-    fn with_thread_buffers<R>(&self, columns: usize, task: impl FnOnce(&mut TaskBuffers) -> R) -> R {
-        thread_local! {
-            static BUFFERS: std::cell::RefCell<TaskBuffers> = const { std::cell::RefCell::new(TaskBuffers::EMPTY) };
-        }
-        BUFFERS.with(|cell| {
-            let mut b = cell.borrow_mut();
-            self.fit(&mut b, columns);
-            task(&mut b)
+    fn with_thread_buffers<R>(&self, columns: usize, task: impl FnOnce(&mut TaskBuffers<T>) -> R) -> R {
+        T::with_thread_buffers(|b| {
+            self.fit(b, columns);
+            task(b)
         })
     }
 
-    pub fn scratch(&self) -> Circulant2Scratch {
+    pub fn scratch(&self) -> Circulant2Scratch<T> {
         let mut buffers = TaskBuffers::EMPTY;
         if !self.parallel() {
             self.fit(&mut buffers, COLUMN_BLOCK);
@@ -146,17 +175,18 @@ impl Circulant2 {
     }
 
     /// Half spectra of the rows of `input` into `rows` (ny x h), two rows per complex transform.
-    fn rows_forward_task(&self, input: &[f64], rows: &mut [Complex<f64>], b: &mut TaskBuffers) {
+    fn rows_forward_task(&self, input: &[f64], rows: &mut [Complex<T>], b: &mut TaskBuffers<T>) {
+        let (zero, half) = (T::zero(), T::of(0.5));
         let (nx, h) = (self.nx, self.half_width());
         for (rows_in, spectra) in input.chunks(2 * nx).zip(rows.chunks_mut(2 * h)) {
             let (a, second) = rows_in.split_at(nx);
             if second.is_empty() {
                 for (z, &x) in b.pair.iter_mut().zip(a) {
-                    *z = Complex::new(x, 0.0);
+                    *z = Complex::new(T::of(x), zero);
                 }
             } else {
                 for ((z, &x), &y) in b.pair.iter_mut().zip(a).zip(second) {
-                    *z = Complex::new(x, y);
+                    *z = Complex::new(T::of(x), T::of(y));
                 }
             }
             self.row_forward.process_with_scratch(&mut b.pair, &mut b.fft_scratch);
@@ -167,31 +197,32 @@ impl Circulant2 {
             let mirrored = std::iter::once(z[0]).chain(z[nx - (h - 1)..].iter().rev().copied());
             if spectrum_b.is_empty() {
                 for ((a, &zk), zm) in spectrum_a.iter_mut().zip(&z[..h]).zip(mirrored) {
-                    *a = Complex::new(0.5 * (zk.re + zm.re), 0.5 * (zk.im - zm.im));
+                    *a = Complex::new(half * (zk.re + zm.re), half * (zk.im - zm.im));
                 }
             } else {
                 for (((a, b), &zk), zm) in spectrum_a.iter_mut().zip(spectrum_b.iter_mut()).zip(&z[..h]).zip(mirrored) {
-                    *a = Complex::new(0.5 * (zk.re + zm.re), 0.5 * (zk.im - zm.im));
-                    *b = Complex::new(0.5 * (zk.im + zm.im), 0.5 * (zm.re - zk.re));
+                    *a = Complex::new(half * (zk.re + zm.re), half * (zk.im - zm.im));
+                    *b = Complex::new(half * (zk.im + zm.im), half * (zm.re - zk.re));
                 }
             }
         }
     }
 
     /// Real rows of `out` from the half spectra in `rows`, two rows per complex transform.
-    fn rows_inverse_task(&self, rows: &mut [Complex<f64>], out: &mut [f64], b: &mut TaskBuffers) {
+    fn rows_inverse_task(&self, rows: &mut [Complex<T>], out: &mut [f64], b: &mut TaskBuffers<T>) {
+        let zero = T::zero();
         let (nx, h) = (self.nx, self.half_width());
         for (spectra, rows_out) in rows.chunks_mut(2 * h).zip(out.chunks_mut(2 * nx)) {
             let (spectrum_a, spectrum_b) = spectra.split_at_mut(h);
             // A real row's spectrum has real end bins; rounding must not leak into the other row.
-            spectrum_a[0].im = 0.0;
+            spectrum_a[0].im = zero;
             if !spectrum_b.is_empty() {
-                spectrum_b[0].im = 0.0;
+                spectrum_b[0].im = zero;
             }
             if nx % 2 == 0 {
-                spectrum_a[h - 1].im = 0.0;
+                spectrum_a[h - 1].im = zero;
                 if !spectrum_b.is_empty() {
-                    spectrum_b[h - 1].im = 0.0;
+                    spectrum_b[h - 1].im = zero;
                 }
             }
             // Z = A + i B: bins 0..h from the half spectra, the rest by Hermitian symmetry
@@ -217,12 +248,12 @@ impl Circulant2 {
             let (first, second) = rows_out.split_at_mut(nx);
             if second.is_empty() {
                 for (x, z) in first.iter_mut().zip(&b.pair) {
-                    *x = z.re;
+                    *x = z.re.into();
                 }
             } else {
                 for ((x, y), z) in first.iter_mut().zip(second.iter_mut()).zip(&b.pair) {
-                    *x = z.re;
-                    *y = z.im;
+                    *x = z.re.into();
+                    *y = z.im.into();
                 }
             }
         }
@@ -234,7 +265,7 @@ impl Circulant2 {
     /// # Safety
     /// `rows` points to the ny x h spectrum, alive for the call, whose columns `first..first +
     /// count` no other thread touches meanwhile.
-    unsafe fn columns_task(&self, multiplier: Option<&[f64]>, rows: SharedRows, first: usize, count: usize, b: &mut TaskBuffers) {
+    unsafe fn columns_task(&self, multiplier: Option<&[f64]>, rows: SharedRows<T>, first: usize, count: usize, b: &mut TaskBuffers<T>) {
         let (ny, h, stride) = (self.ny, self.half_width(), self.stride);
         assert!(first + count <= h && rows.1 == ny * h, "a column block outside the spectrum");
         let norm = 1.0 / (self.nx * ny) as f64;
@@ -251,7 +282,7 @@ impl Circulant2 {
             self.column_forward.process_with_scratch(column, &mut b.fft_scratch);
             if let Some(m) = multiplier {
                 for (c, &m) in column.iter_mut().zip(&m[(first + k) * ny..(first + k + 1) * ny]) {
-                    *c *= m * norm;
+                    *c = *c * T::of(m * norm);
                 }
                 self.column_inverse.process_with_scratch(column, &mut b.fft_scratch);
             }
@@ -265,7 +296,7 @@ impl Circulant2 {
         }
     }
 
-    fn rows_forward(&self, input: &[f64], s: &mut Circulant2Scratch) {
+    fn rows_forward(&self, input: &[f64], s: &mut Circulant2Scratch<T>) {
         let (nx, h) = (self.nx, self.half_width());
         if self.parallel() {
             let per = self.rows_per_task();
@@ -278,7 +309,7 @@ impl Circulant2 {
         }
     }
 
-    fn rows_inverse(&self, s: &mut Circulant2Scratch, out: &mut [f64]) {
+    fn rows_inverse(&self, s: &mut Circulant2Scratch<T>, out: &mut [f64]) {
         let (nx, h) = (self.nx, self.half_width());
         if self.parallel() {
             let per = self.rows_per_task();
@@ -292,7 +323,7 @@ impl Circulant2 {
     }
 
     /// The column phase over the whole half spectrum in `s.rows`.
-    fn columns(&self, multiplier: Option<&[f64]>, s: &mut Circulant2Scratch) {
+    fn columns(&self, multiplier: Option<&[f64]>, s: &mut Circulant2Scratch<T>) {
         let h = self.half_width();
         if self.parallel() {
             // Blocks of columns touch disjoint entries of every row: each task reaches the
@@ -315,7 +346,7 @@ impl Circulant2 {
     }
 
     /// out = operator(multiplier) * input: multiplier holds the (nx/2 + 1) ny real eigenvalues.
-    pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], s: &mut Circulant2Scratch) {
+    pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], s: &mut Circulant2Scratch<T>) {
         assert_eq!(multiplier.len(), self.spectrum_len(), "a multiplier of the wrong size");
         assert_eq!(input.len(), self.nx * self.ny, "an input of the wrong size");
         self.rows_forward(input, s);
@@ -332,18 +363,18 @@ impl Circulant2 {
         self.rows_forward(column, &mut s);
         self.columns(None, &mut s);
         let (ny, h) = (self.ny, self.half_width());
-        (0..h).flat_map(|qx| (0..ny).map(move |qy| (qx, qy))).map(|(qx, qy)| s.rows[qy * h + qx].re).collect()
+        (0..h).flat_map(|qx| (0..ny).map(move |qy| (qx, qy))).map(|(qx, qy)| s.rows[qy * h + qx].re.into()).collect()
     }
 }
 
 /// The row spectra shared by the column tasks (pointer, length), each of which reads and writes
 /// its own columns only.
 #[derive(Clone, Copy)]
-struct SharedRows(*mut Complex<f64>, usize);
+struct SharedRows<T>(*mut Complex<T>, usize);
 
 // SAFETY: see `Circulant2::columns`: tasks touch disjoint entries.
-unsafe impl Send for SharedRows {}
-unsafe impl Sync for SharedRows {}
+unsafe impl<T> Send for SharedRows<T> {}
+unsafe impl<T> Sync for SharedRows<T> {}
 
 /// Columns per column task when parallel (16 complex values: four cache lines per row).
 const COLUMN_BLOCK: usize = 16;
@@ -379,7 +410,7 @@ mod tests {
         // 181^2 just below); odd ny leaves a lone last row
         // and odd nx a spectrum without a Nyquist bin.
         for (ny, nx) in [(4, 5), (5, 4), (7, 9), (8, 8), (9, 16), (181, 181), (183, 183), (130, 256), (257, 130), (128, 257)] {
-            let circulant = Circulant2::new(ny, nx);
+            let circulant = Circulant2::<f64>::new(ny, nx);
             let mut column = vec![0.0; ny * nx];
             for &(dy, dx, w) in &STENCIL {
                 column[wrap(dy, ny) * nx + wrap(dx, nx)] += w;
@@ -398,9 +429,35 @@ mod tests {
     }
 
     #[test]
+    fn single_precision_products_match_the_direct_convolution_to_single_precision() {
+        // The solver's low-precision products (preconditioner, rough sweeps, loose tolerances):
+        // within a few single-precision roundings (6e-8) of the product's size, and no closer than
+        // double precision would be (the f32 path really runs in f32).
+        for (ny, nx) in [(7, 9), (8, 8), (181, 181), (183, 183), (257, 130)] {
+            let exact = Circulant2::<f64>::new(ny, nx);
+            let low = Circulant2::<f32>::new(ny, nx);
+            let mut column = vec![0.0; ny * nx];
+            for &(dy, dx, w) in &STENCIL {
+                column[wrap(dy, ny) * nx + wrap(dx, nx)] += w;
+            }
+            let multiplier = exact.spectrum_of(&column);
+            let input: Vec<f64> = (0..ny * nx).map(|i| ((i * 7919 % 1009) as f64 / 1009.0 - 0.5) * (1.0 + (i % 13) as f64)).collect();
+            let mut out = vec![0.0; ny * nx];
+            let mut scratch = low.scratch();
+            low.apply(&multiplier, &input, &mut out, &mut scratch);
+            let expected = direct(ny, nx, &input);
+            let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let worst = out.iter().zip(&expected).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(worst <= 1e-5 * scale, "{ny} x {nx}: off by {worst:e} of {scale:e}");
+            assert!(worst > 1e-12 * scale, "{ny} x {nx}: as close as double precision ({worst:e})");
+            assert_eq!(scratch.pairs(), 1);
+        }
+    }
+
+    #[test]
     fn products_are_bitwise_the_same_on_one_and_three_threads() {
         let (ny, nx) = (257, 130);
-        let circulant = Circulant2::new(ny, nx);
+        let circulant = Circulant2::<f64>::new(ny, nx);
         let column: Vec<f64> = (0..ny * nx).map(|i| 1.0 / (1.0 + (i % 97) as f64)).collect();
         let input: Vec<f64> = (0..ny * nx).map(|i| ((i * 7919 % 1009) as f64).sin()).collect();
         let run = |threads: usize| {

@@ -168,7 +168,7 @@ pub fn element_spectrum(grid: &Grid, alpha: f64) -> Vec<f64> {
             column[index] += short_range(x, y, grid, alpha, &rule, &far_rule);
         }
     }
-    let mut spectrum = Circulant2::new(ny, nx).spectrum_of(&column);
+    let mut spectrum = Circulant2::<f64>::new(ny, nx).spectrum_of(&column);
     // Long range: aliases K = k + (2 pi j / dx, 2 pi l / dy) with |K| < 2 alpha CUTOFF.
     let k_max = 2.0 * alpha * CUTOFF;
     let (gx, gy) = (2.0 * PI / dx, 2.0 * PI / dy);
@@ -204,7 +204,7 @@ pub fn element_spectrum(grid: &Grid, alpha: f64) -> Vec<f64> {
 }
 
 /// The finite-model kernel embedded in a (2 ny) x (2 nx) circulant for linear convolution: its
-/// eigenvalues in the layout of `Circulant2::new(2 ny, 2 nx)`.
+/// eigenvalues in the layout of `Circulant2::<f64>::new(2 ny, 2 nx)`.
 pub fn finite_embedded_spectrum(grid: &Grid) -> Vec<f64> {
     let Grid { ny, nx, dx, dy } = *grid;
     let (my, mx) = (2 * ny, 2 * nx);
@@ -220,5 +220,5 @@ pub fn finite_embedded_spectrum(grid: &Grid) -> Vec<f64> {
             }
         }
     }
-    Circulant2::new(my, mx).spectrum_of(&column)
+    Circulant2::<f64>::new(my, mx).spectrum_of(&column)
 }

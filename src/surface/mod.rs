@@ -14,8 +14,7 @@ pub mod synthetic;
 
 use rayon::prelude::*;
 
-use self::compliance::{SurfaceFinite, SurfaceFiniteScratch, SurfacePeriodic};
-use self::fft::Circulant2Scratch;
+use self::compliance::{SurfaceFinite, SurfaceFiniteScratch, SurfacePeriodic, SurfacePeriodicScratch};
 pub use self::kernel::Grid;
 use crate::compliance::Compliance;
 use crate::continuation::next_modulus_guess;
@@ -134,6 +133,15 @@ impl SurfaceWorkspace {
         }
     }
 
+    /// Of [`SurfaceWorkspace::fft_pairs`], those applied in single precision (the periodic model's
+    /// preconditioner, rough sweeps and loose tolerances: `crate::solver::cg`).
+    pub fn low_precision_pairs(&self) -> u64 {
+        match &self.inner {
+            Inner::Periodic(w) => w.scratch().low_pairs(),
+            Inner::Empty | Inner::Finite(_) => 0,
+        }
+    }
+
     /// Points of the grid this workspace's vectors were last sized for (0: none yet).
     fn len(&self) -> usize {
         match &self.inner {
@@ -167,7 +175,7 @@ impl SurfaceWorkspace {
 enum Inner {
     #[default]
     Empty,
-    Periodic(cg::Work<Circulant2Scratch>),
+    Periodic(cg::Work<SurfacePeriodicScratch>),
     Finite(cg::Work<SurfaceFiniteScratch>),
 }
 

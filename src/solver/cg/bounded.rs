@@ -16,6 +16,7 @@ impl<Op: Compliance> Context<'_, Op> {
     #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
     pub(super) fn bounded_cg(&mut self, mut p: Vec<f64>, max_iterations: usize) -> Outcome {
         let (op, z, w) = (self.op, self.z, &mut *self.w);
+        let low_products = self.low_products;
         let n = z.len();
         let mut gap = vec![0.0; n];
         let mut free = vec![false; n];
@@ -42,7 +43,7 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             let free_count = free_set(&mut free, &mut w.residual, &p, &gap);
             project_zero_sum(&mut w.residual, &free, free_count);
-            op.precondition(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            op.precondition_low(&w.residual, &mut w.preconditioned, &mut w.scratch);
             mask_and_project(&mut w.preconditioned, &free, free_count);
             let rho = dot(&w.residual, &w.preconditioned);
             if !(rho > 0.0) {
@@ -53,7 +54,11 @@ impl<Op: Compliance> Context<'_, Op> {
             free_direction(&mut w.direction, &w.preconditioned, &free, beta, iterations == 0);
             project_zero_sum(&mut w.direction, &free, free_count);
             w.previous.copy_from_slice(&w.preconditioned);
-            op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            if low_products {
+                op.displacement_low(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            } else {
+                op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
+            }
             let curvature = dot(&w.direction, &w.applied_direction);
             if !(curvature > 0.0) {
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
