@@ -8,6 +8,9 @@ use crate::kernel::{
 /// A symmetric compliance operator on N elements with an FFT preconditioner.
 pub trait Compliance: Sync {
     type Scratch: Send;
+    /// Whether [`Compliance::displacement_low`] is a low-precision product (not the double one):
+    /// only then do loose tolerances steer with it (`crate::solver::cg`).
+    const LOW_PRECISION_DISPLACEMENT: bool = false;
     fn len(&self) -> usize;
     fn is_empty(&self) -> bool {
         self.len() == 0
@@ -28,8 +31,9 @@ pub trait Compliance: Sync {
         self.precondition(gap, out, scratch);
     }
     /// [`Compliance::displacement`] in low precision where the operator has one (see
-    /// [`Compliance::precondition_low`]), else the same: for the rough sweeps and loose
-    /// tolerances only, whose stopping tests are far above its rounding.
+    /// [`Compliance::precondition_low`]), else the same: for the products that steer the rough
+    /// sweeps and loose tolerances, whose inner stops are far above its rounding (their final
+    /// tests stand on [`Compliance::displacement`]).
     fn displacement_low(&self, pressure: &[f64], out: &mut [f64], scratch: &mut Self::Scratch) {
         self.displacement(pressure, out, scratch);
     }

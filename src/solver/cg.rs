@@ -33,6 +33,8 @@ use crate::compliance::Compliance;
 mod bounded;
 mod covering;
 mod mask_bits;
+#[cfg(test)]
+mod tests;
 
 use covering::{add_prolonged_covering, deflate_covering};
 
@@ -90,8 +92,9 @@ const SMALL_UNSETTLED_DIM: usize = 256;
 const MAX_UNSETTLED_N: usize = 1 << 18;
 
 /// Tolerances at or above this solve every product that steers the iteration (the inner CG's
-/// C d, the warm-up steps') in low precision ([`Compliance::displacement_low`], single-precision
-/// transforms where the operator has them, about 1e-7 of the product's size); tighter ones only
+/// C d, the bounded CG's of the warm-up and the safety net) in low precision
+/// ([`Compliance::displacement_low`], single-precision transforms where the operator has them:
+/// [`Compliance::LOW_PRECISION_DISPLACEMENT`], about 1e-7 of the product's size); tighter ones only
 /// the rough sweeps'. Every stopping test stands on a fresh double-precision product, and a precise
 /// sweep that misses tol on a settled set is solved again in double precision.
 const LOW_PRECISION_TOL: f64 = 1e-5;
@@ -215,7 +218,7 @@ pub(crate) fn solve<Op: Compliance>(
         last_changes: 0,
         coarse_is_last: false,
         coarse_reused: false,
-        low_products: problem.tol >= LOW_PRECISION_TOL,
+        low_products: Op::LOW_PRECISION_DISPLACEMENT && problem.tol >= LOW_PRECISION_TOL,
         w: work,
     };
     let warm_up = problem.warm_up.unwrap_or_else(|| warm_up_iterations(n));
@@ -246,7 +249,7 @@ struct Context<'a, Op: Compliance> {
     /// an earlier solve), and whether [`Context::coarse_space`] returned it again.
     coarse_is_last: bool,
     coarse_reused: bool,
-    /// Whether the precise sweeps' and warm-up steps' C d may be low-precision products (see
+    /// Whether the precise sweeps' and the bounded CG's C d may be low-precision products (see
     /// [`LOW_PRECISION_TOL`]; cleared when a precise sweep misses tol).
     low_products: bool,
     w: &'a mut Work<Op::Scratch>,
@@ -569,11 +572,7 @@ impl<Op: Compliance> Context<'_, Op> {
             // y becomes `previous` (the next precondition overwrites all of `preconditioned`).
             std::mem::swap(&mut w.previous, &mut w.preconditioned);
             // C d on all points: its projection on A updates r, all of it tracks C p.
-            if low {
-                op.displacement_low(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            } else {
-                op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            }
+            steering_product(op, low, &w.direction, &mut w.applied_direction, &mut w.scratch);
             let (applied_sum, curvature) = masked_sum_and_dot(&w.direction, &w.applied_direction, &w.mask_bits);
             let mean = applied_sum / count as f64;
             if !(curvature > 0.0) {
@@ -590,6 +589,16 @@ impl<Op: Compliance> Context<'_, Op> {
         self.coarse_is_last = coarse.is_some();
         self.coarse = coarse;
         iterations
+    }
+}
+
+/// C x into `out` for a product that steers the iteration (no stopping test stands on it): in low
+/// precision when `low`.
+fn steering_product<Op: Compliance>(op: &Op, low: bool, x: &[f64], out: &mut [f64], scratch: &mut Op::Scratch) {
+    if low {
+        op.displacement_low(x, out, scratch);
+    } else {
+        op.displacement(x, out, scratch);
     }
 }
 

@@ -69,6 +69,7 @@ impl SurfacePeriodicScratch {
 
 impl Compliance for SurfacePeriodic {
     type Scratch = SurfacePeriodicScratch;
+    const LOW_PRECISION_DISPLACEMENT: bool = true;
 
     fn len(&self) -> usize {
         self.grid.len()
@@ -138,6 +139,13 @@ pub struct SurfaceFiniteScratch {
     padded: Vec<f64>,
     padded_out: Vec<f64>,
     periodic: SurfacePeriodicScratch,
+}
+
+impl SurfaceFiniteScratch {
+    /// Single-precision 2-D FFT pairs applied so far (the preconditioner's; its C p is double).
+    pub fn low_pairs(&self) -> u64 {
+        self.periodic.low_pairs()
+    }
 }
 
 impl SurfaceFinite {

@@ -133,12 +133,13 @@ impl SurfaceWorkspace {
         }
     }
 
-    /// Of [`SurfaceWorkspace::fft_pairs`], those applied in single precision (the periodic model's
-    /// preconditioner, rough sweeps and loose tolerances: `crate::solver::cg`).
+    /// Of [`SurfaceWorkspace::fft_pairs`], those applied in single precision (the preconditioner;
+    /// for the periodic model also the rough sweeps' and loose tolerances' C d: `crate::solver::cg`).
     pub fn low_precision_pairs(&self) -> u64 {
         match &self.inner {
+            Inner::Empty => 0,
             Inner::Periodic(w) => w.scratch().low_pairs(),
-            Inner::Empty | Inner::Finite(_) => 0,
+            Inner::Finite(w) => w.scratch().low_pairs(),
         }
     }
 

@@ -1,7 +1,7 @@
 //! The bound-constrained CG of the cold start's warm-up and of the safety net (split from
 //! [`super`] by concern: the sweeps' deflated PCG stays there).
 
-use super::{Context, MAX_COLUMN_UPDATES};
+use super::{steering_product, Context, MAX_COLUMN_UPDATES};
 use crate::compliance::Compliance;
 use crate::solver::reduce::{
     bounded_gap, dot, free_direction, free_set, mask_and_project, project_zero_sum, scale, step_and_count_negative, sum4,
@@ -47,6 +47,12 @@ impl<Op: Compliance> Context<'_, Op> {
             mask_and_project(&mut w.preconditioned, &free, free_count);
             let rho = dot(&w.residual, &w.preconditioned);
             if !(rho > 0.0) {
+                // A breakdown: what is returned stands on a fresh product too (the tracked C p may
+                // carry low-precision steps).
+                if !fresh {
+                    op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                    res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
+                }
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
             }
             // `direction` and `previous` are read only after this call wrote them (iterations > 0).
@@ -54,13 +60,15 @@ impl<Op: Compliance> Context<'_, Op> {
             free_direction(&mut w.direction, &w.preconditioned, &free, beta, iterations == 0);
             project_zero_sum(&mut w.direction, &free, free_count);
             w.previous.copy_from_slice(&w.preconditioned);
-            if low_products {
-                op.displacement_low(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            } else {
-                op.displacement(&w.direction, &mut w.applied_direction, &mut w.scratch);
-            }
+            steering_product(op, low_products, &w.direction, &mut w.applied_direction, &mut w.scratch);
             let curvature = dot(&w.direction, &w.applied_direction);
             if !(curvature > 0.0) {
+                // A breakdown: what is returned stands on a fresh product too (the tracked C p may
+                // carry low-precision steps).
+                if !fresh {
+                    op.displacement(&p, &mut w.displacement, &mut w.scratch);
+                    res = bounded_gap(z, &p, &w.displacement, &mut gap, self.scale);
+                }
                 return Outcome { pressure: p, gap, iterations, residual: res, converged: false };
             }
             let alpha = dot(&w.residual, &w.direction) / curvature;
