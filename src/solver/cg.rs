@@ -33,10 +33,12 @@ use crate::compliance::Compliance;
 mod bounded;
 mod covering;
 mod mask_bits;
+mod precision;
 #[cfg(test)]
 mod tests;
 
 use covering::{add_prolonged_covering, deflate_covering};
+use precision::{steering_product, LOW_PRECISION_TOL};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -90,14 +92,6 @@ fn coarse_dim(n: usize, runs: usize) -> usize {
 const UNSETTLED: usize = 20;
 const SMALL_UNSETTLED_DIM: usize = 256;
 const MAX_UNSETTLED_N: usize = 1 << 18;
-
-/// Tolerances at or above this solve every product that steers the iteration (the inner CG's
-/// C d, the bounded CG's of the warm-up and the safety net) in low precision
-/// ([`Compliance::displacement_low`], single-precision transforms where the operator has them:
-/// [`Compliance::LOW_PRECISION_DISPLACEMENT`], about 1e-7 of the product's size); tighter ones only
-/// the rough sweeps'. Every stopping test stands on a fresh double-precision product, and a precise
-/// sweep that misses tol on a settled set is solved again in double precision.
-const LOW_PRECISION_TOL: f64 = 1e-5;
 
 /// Most points whose pressure is dropped from the set between sweeps for which C p is updated
 /// column by column (O(N) each) instead of by a fresh FFT product.
@@ -589,16 +583,6 @@ impl<Op: Compliance> Context<'_, Op> {
         self.coarse_is_last = coarse.is_some();
         self.coarse = coarse;
         iterations
-    }
-}
-
-/// C x into `out` for a product that steers the iteration (no stopping test stands on it): in low
-/// precision when `low`.
-fn steering_product<Op: Compliance>(op: &Op, low: bool, x: &[f64], out: &mut [f64], scratch: &mut Op::Scratch) {
-    if low {
-        op.displacement_low(x, out, scratch);
-    } else {
-        op.displacement(x, out, scratch);
     }
 }
 

@@ -1,7 +1,8 @@
 //! The bound-constrained CG of the cold start's warm-up and of the safety net (split from
 //! [`super`] by concern: the sweeps' deflated PCG stays there).
 
-use super::{steering_product, Context, MAX_COLUMN_UPDATES};
+use super::precision::steering_product;
+use super::{Context, MAX_COLUMN_UPDATES};
 use crate::compliance::Compliance;
 use crate::solver::reduce::{
     bounded_gap, dot, free_direction, free_set, mask_and_project, project_zero_sum, scale, step_and_count_negative, sum4,
