@@ -5,6 +5,7 @@ and (issue 39) one at 1 mm, the three CAPTIF files averaged to 1 mm and CAPTIF a
     .venv/bin/python benches/model_grid.py                 # the demo's archive and 10 km at 0.5 mm
     .venv/bin/python benches/model_grid.py --km 1 --check-runs 2
     .venv/bin/python benches/model_grid.py --km 1 --km-1mm 0.8 --captif --no-demo
+    .venv/bin/python benches/model_grid.py --km 1 --km-1mm 1 --no-demo --check-runs 2 --repeats 3
 
 Per archive it also prints stated / actual (median and least over the budget bands, each band at its row
 nearest its statement: every row states its own error) and the chosen k
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import tempfile
 import time
 import warnings
@@ -152,6 +154,9 @@ def main() -> None:
     parser.add_argument("--km-1mm", type=float, default=0.0, help="length of a synthetic 1 mm archive (km; 0: none)")
     parser.add_argument("--captif", action="store_true", help="also CAPTIF averaged to 1 mm and as measured")
     parser.add_argument("--no-demo", action="store_true", help="leave out the demo's archive")
+    parser.add_argument("--repeats", type=int, default=0,
+                        help="then time both jobs this many more times each, alternated in fresh folders, and "
+                             "print every ratio and their median (0: the one run above only)")
     args = parser.parse_args()
     work = Path(args.work or tempfile.mkdtemp(prefix="model-grid-"))
     kinds = ("dense_asphalt", "porous_asphalt", "cement_concrete", "surface_dressing")
@@ -164,7 +169,7 @@ def main() -> None:
         archives[f"{args.km_1mm:g} km at 1 mm"] = write_synthetic_archive(
             work / "archive-1mm", kinds=kinds, runs_per_kind=max(1, round(args.km_1mm * 1000 / 20 / 4)),
             run_length=20.0, dx=1e-3)
-    captif = Path(__import__("os").environ.get("ROADTEX_CAPTIF_DIR", "../shared/data/captif-slp"))
+    captif = Path(os.environ.get("ROADTEX_CAPTIF_DIR", "../shared/data/captif-slp"))
     if args.captif and captif.is_dir():
         archives["CAPTIF averaged to 1 mm"] = captif_archive(work / "captif-1mm", captif, 1e-3)
         archives["CAPTIF as measured (0.0375 mm)"] = captif_archive(work / "captif", captif, None)
@@ -203,6 +208,28 @@ def main() -> None:
                 print(f"   {row['label']:>8} {row['stated']:12.3f} {row['actual']:12.3f} {row['ratio']:12.2f} {spread:14.2f}")
         ratio = results["model grid (pilot)"]["seconds"] / results["data grid (budget off)"]["seconds"]
         print(f"time ratio, model grid / data grid: {ratio:.2f}")
+        if args.repeats > 0:
+            alternated_ratios(name, manifest, work, args.repeats)
+
+
+def alternated_ratios(name: str, manifest: Path, work: Path, repeats: int) -> None:
+    """Both jobs timed ``repeats`` more times, data grid then default, each in a fresh folder, after
+    the runs above warmed the process: the ratio of one pair moves with the machine (on 2 cores the
+    same code's 1 km ratio ranged from 1.8 to 2.6 between runs an hour apart), so the median of
+    alternated pairs is the figure to compare, with its range."""
+    ratios, grids, defaults, pilots = [], [], [], []
+    for repeat in range(repeats):
+        grid = run_job(manifest, work / f"out-{abs(hash((name, 'grid', repeat)))}", ProcessingOptions(error_budget_db=None))
+        default = run_job(manifest, work / f"out-{abs(hash((name, 'default', repeat)))}", ProcessingOptions())
+        grids.append(grid["seconds"])
+        defaults.append(default["seconds"])
+        pilots.append(default["pilot_seconds"])
+        ratios.append(default["seconds"] / grid["seconds"])
+        print(f"   alternated {repeat + 1}: data grid {grid['seconds']:.1f} s, default {default['seconds']:.1f} s "
+              f"(pilot {default['pilot_seconds']:.1f} s, k {default['refines']}), ratio {ratios[-1]:.2f}", flush=True)
+    print(f"time ratio over {repeats} alternated pairs: median {np.median(ratios):.2f} (from {min(ratios):.2f} to "
+          f"{max(ratios):.2f}); medians: data grid {np.median(grids):.1f} s, default {np.median(defaults):.1f} s, "
+          f"pilot {np.median(pilots):.1f} s; without the pilot {np.median(np.subtract(defaults, pilots)) / np.median(grids):.2f}")
 
 
 if __name__ == "__main__":

@@ -365,3 +365,25 @@ def test_the_filter_method_warns_on_millimetres_and_leaves_lineless_bands_empty(
     empty = levels.bands["lines"].to_numpy() == 0
     assert empty.any() and np.isnan(levels.levels[0, empty]).all()
     assert np.isfinite(levels.levels[0, ~empty & levels.bands["reported"].to_numpy()]).all()
+
+
+@pytest.mark.parametrize(("points", "dx"), [(4000, 0.125e-3), (500, 1e-3), (999, 0.5e-3), (1000, 0.5e-3)])
+def test_the_bands_hold_every_line_between_their_edges_and_no_other(points: int, dx: float) -> None:
+    # A model grid has many lines past the shortest band (0.4 mm), which no band holds and which are
+    # not turned into powers; every line between the table's outer edges is in exactly one band: the
+    # band powers add up to the one-sided line powers between those edges (Nyquist line counted once),
+    # computed here line by line from numpy's FFT
+    rng = np.random.default_rng(points)
+    signal = rng.normal(size=(3, points)) * 1e-4
+    levels = spectra.band_levels(signal, dx, periodic=True)
+    bands = levels.bands["band"].to_numpy()
+    k = np.arange(1, points // 2 + 1)
+    wavenumber = k / (points * dx)
+    inside = (wavenumber >= 10.0 ** ((bands.min() - 0.5) / 10.0)) & (wavenumber < 10.0 ** ((bands.max() + 0.5) / 10.0))
+    weight = np.where((points % 2 == 0) & (k == points // 2), 1.0, 2.0) / points**2
+    line_power = np.abs(np.fft.rfft(signal, axis=1)[:, 1:]) ** 2 * weight
+    expected = line_power[:, inside].sum(axis=1)
+    np.testing.assert_allclose(np.nansum(levels.mean_square, axis=1), expected, rtol=1e-12)
+    assert inside.sum() == levels.bands["lines"].sum()
+    if dx < 0.2e-3:   # the case of a model grid: lines past the shortest band exist (none of them counts)
+        assert (wavenumber >= 10.0 ** ((bands.max() + 0.5) / 10.0)).sum() > points // 8

