@@ -325,7 +325,8 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None,
                         help="Dask scheduler address (default: start a local cluster)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes of a local Dask cluster (default 2)")
-    parser.add_argument("--threads", type=int, default=None, help="Rust threads per run (default: all cores)")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="Rust threads per run (default: the job shares the cores between its runs in flight)")
     parser.add_argument("--force", action="store_true", help="recompute runs that are already done")
     parser.add_argument("--retry-failed", action="store_true",
                         help="process again the runs that failed before (they stay on record until retried)")

@@ -149,10 +149,11 @@ OPTIONS = ProcessingOptions(youngs_moduli=(2e6, 1e7), segment_length=0.128, tol=
 
 def test_bulk_job_tables_are_identical_with_1_and_2_threads(tmp_path: Path):
     """roadtex.archive.process on the built-in synthetic archive (three pavements) writes the
-    same combined and per-run tables, exactly, with threads=1, threads=2 and again threads=2."""
+    same combined and per-run tables, exactly, with threads=1, threads=2, again threads=2 and the
+    job's own sharing of the cores between its runs in flight (threads=None)."""
     manifest = write_synthetic_archive(tmp_path / "archive", runs_per_kind=1, run_length=0.6, dx=5e-4)
     outs = []
-    for k, threads in enumerate((1, 2, 2)):
+    for k, threads in enumerate((1, 2, 2, None)):
         out = tmp_path / f"out{k}"
         summary = process(manifest, out, OPTIONS, quiet=True, threads=threads)
         assert summary.processed == 3 and summary.failed == 0

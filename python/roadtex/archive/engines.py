@@ -9,6 +9,7 @@ import uuid
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from roadtex._checks import usable_cores
 from roadtex.archive.plan import JobPlan
 from roadtex.errors import MissingDependencyError
 
@@ -19,25 +20,65 @@ log = logging.getLogger("roadtex.archive")
 RunWorker = Callable[..., dict[str, Any]]
 
 
-#: Runs in flight on the local engine. Two, so that one run's reading, conditioning, spectra and
-#: writing (Python, one core) overlap the other's contact solve (Rust, every core, GIL released):
-#: about 20 % of a run's time is Python. Memory holds at most this many runs.
+#: Runs in flight on the local engine when the job is given its ``threads``: two, so that one run's
+#: reading, conditioning, spectra and writing (Python, one core) overlap the other's contact solve
+#: (Rust, ``threads`` cores, GIL released). Memory holds at most this many runs.
 LOCAL_RUNS_IN_FLIGHT = 2
+
+#: Most runs in flight when the job chooses its threads (``threads=None``, see :func:`local_schedule`):
+#: memory holds at most this many runs (a line run's model grid is chunked to 2^22 points, 256 MB
+#: of envelopes and pressures for four moduli, whatever its length).
+MAX_LOCAL_RUNS_IN_FLIGHT = 5
+
+
+def local_schedule(threads: int | None, cores: int | None = None) -> int:
+    """Runs in flight on the local engine on ``cores`` (default: the cores this process may use):
+    :data:`LOCAL_RUNS_IN_FLIGHT` when the job is given its ``threads``; left to the job (None), one
+    more than the cores, at most :data:`MAX_LOCAL_RUNS_IN_FLIGHT` (each run's solves on
+    :func:`run_threads`). A run in its Python steps (reading, conditioning, spectra, writing) holds
+    the GIL, one core's worth, while the others keep every core solving.
+
+    Measured on 2 cores (issue 39, 2026-12-02, ``benches/local_schedule.py``: this schedule and two
+    runs on both cores alternated in one process, the line pilots kept from a first job, the same
+    tables bit for bit): 1 km at 0.5 mm, the default job 12.0 to 12.3 s against 13.2 to 13.6 s, its
+    data grid 5.3 to 5.7 s against 6.3 to 6.5 s; 1 km at 1 mm 8.1 s against 9.1 to 9.4 s, 3.9 to 4.3 s
+    against 4.4 to 4.6 s; the demo's archive (three 1 mm surfaces, their pilots included) 25.6 and
+    25.8 s against 27.1 and 28.5 s. Four runs on one thread each did no better than three.
+    """
+    if threads is not None:
+        return LOCAL_RUNS_IN_FLIGHT
+    cores = max(1, usable_cores() if cores is None else cores)
+    return min(cores + 1, MAX_LOCAL_RUNS_IN_FLIGHT)
+
+
+def run_threads(threads: int | None, remaining: int, cores: int | None = None) -> int:
+    """Rust threads for the solves of the next run the local engine starts, ``remaining`` runs (this
+    one included) still to start: ``threads`` when given; left to the job (None), the cores shared by
+    the runs that can solve at once (:func:`local_schedule` less the one in Python), so one thread
+    each in a long job, and the last runs (or a job of one run) every core."""
+    if threads is not None:
+        return threads
+    cores = max(1, usable_cores() if cores is None else cores)
+    solving = max(1, min(local_schedule(None, cores) - 1, remaining))
+    return max(1, cores // solving)
 
 
 def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int], plan: JobPlan, out: Path,
                    threads: int | None, flags: dict[str, Any]) -> Iterable[tuple[dict[str, Any], int]]:
-    """Runs in manifest order, a bounded number at a time; yields (status, size) as each finishes."""
+    """Runs in manifest order, a bounded number at a time (:func:`local_schedule`); yields (status,
+    size) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
+    in_flight_limit = local_schedule(threads)
     pending = list(zip(runs, sizes))[::-1]
-    with ThreadPoolExecutor(max_workers=LOCAL_RUNS_IN_FLIGHT, thread_name_prefix="roadtex-run") as pool:
+    with ThreadPoolExecutor(max_workers=in_flight_limit, thread_name_prefix="roadtex-run") as pool:
         in_flight: dict[Any, int] = {}
         try:
             while pending or in_flight:
-                while pending and len(in_flight) < LOCAL_RUNS_IN_FLIGHT:
+                while pending and len(in_flight) < in_flight_limit:
+                    solve_threads = run_threads(threads, len(pending))
                     run, size = pending.pop()
-                    in_flight[pool.submit(work, run, plan, out, threads=threads, **flags)] = size
+                    in_flight[pool.submit(work, run, plan, out, threads=solve_threads, **flags)] = size
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 for future in done:
                     size = in_flight.pop(future)

@@ -94,12 +94,14 @@ def process(manifest: str | os.PathLike[str] | pl.DataFrame, out_dir: str | os.P
         manifest: manifest file (CSV/Parquet) or DataFrame, see :func:`read_manifest`.
         out_dir: output folder (created).
         options: what to compute; default :class:`ProcessingOptions()`.
-        engine: "local" (two runs at a time on this machine, segments in parallel on ``threads``
-            Rust threads) or "dask" (runs distributed over Dask workers).
+        engine: "local" (a few runs at a time on this machine, segments in parallel on ``threads``
+            Rust threads: :func:`roadtex.archive.engines.local_schedule`) or "dask" (runs
+            distributed over Dask workers).
         scheduler: Dask scheduler address; None starts a local cluster of ``workers`` processes.
         workers: worker processes of the local Dask cluster.
-        threads: Rust threads per solve batch (None: all cores; with the local Dask cluster the
-            default is one per worker).
+        threads: Rust threads per solve batch (None: the job shares the cores between its runs in
+            flight, one thread each on a long job and every core for its last runs; with the local
+            Dask cluster the default is one per worker).
         quiet: no progress bar; one log line per run instead (logger ``roadtex.archive``).
         force: recompute runs even when their status is current.
         retry_failed: process again the runs whose last attempt failed (by default a failure stays
