@@ -417,7 +417,8 @@ def test_csv_without_header_and_heights_only(tmp_path):
     [
         ("distance (mm),height (furlong)\n0,1\n1,2\n", {}, "unknown unit"),
         ("distance (mm),height (mm)\n0,1\n1,2\n", {"height_unit": "parsec"}, "unknown unit"),
-        ("a (mm),b (mm)\n0,1\n1,2\n", {}, "no height column"),
+        ("a (mm),b\n0,1\n1,2\n", {}, "no height column"),   # one unit only: not read by position
+        ("a (mm),b (mm)\n1,0\n0,1\n", {}, "does not increase"),   # a first column that is no positions
         ("distance (mm),height (mm)\n0,1\n1,2\n", {"height_column": "zz"}, "unknown height column"),
         ("distance (mm),height (mm)\n0,1\n1,2\n", {"height_column": 5}, "out of range"),
         ("distance (mm),height (mm)\n", {}, "no data rows"),

@@ -249,6 +249,34 @@ def test_hand_written_files_two_unknown_columns_and_a_2d_npy_without_format(tmp_
     assert (summary.failed, summary.surface_runs) == (0, 1), errors["message"].to_list()
 
 
+def test_two_unknown_columns_whose_header_states_both_units_are_read_by_position(tmp_path: Path) -> None:
+    """A German export as colleagues send it, "Abstand (mm);Hoehe (mm)": both units are certain (the
+    header's), so the two columns are distance then height, as when the units are given; the same
+    table the other way round is refused, since its first column is no row of positions."""
+    import numpy as np
+    import pytest
+
+    import roadtex
+
+    profile = synthetic_pavement("dense_asphalt", 0.3, DX, seed=6)
+    rows = list(zip(profile.positions * 1e3, profile.heights * 1e3))
+    german = tmp_path / "A7.csv"
+    german.write_text("Site;A7 km 12\nsep=;\nAbstand (mm);Hoehe (mm)\n"
+                      + "".join(f"{x:.4f};{z:.5f}\n".replace(".", ",") for x, z in rows))
+    read = roadtex.read_profile(german)
+    np.testing.assert_allclose(read.heights, profile.heights, atol=1e-8)
+    assert read.dx == pytest.approx(DX)
+    assert any("both units certain, the first ('Abstand (mm)') is read as the distance" in h for h in read.history)
+    swapped = tmp_path / "A7-swapped.csv"
+    swapped.write_text("Hoehe (mm);Abstand (mm)\n" + "".join(f"{z:.5f};{x:.4f}\n".replace(".", ",") for x, z in rows))
+    with pytest.raises(roadtex.ProfileFormatError, match="A7-swapped.csv"):
+        roadtex.read_profile(swapped)
+    one_unit = tmp_path / "A7-one-unit.csv"
+    one_unit.write_text("Abstand (mm);Hoehe\n" + "".join(f"{x:.4f};{z:.5f}\n".replace(".", ",") for x, z in rows))
+    with pytest.raises(roadtex.ProfileFormatError, match="no height column"):
+        roadtex.read_profile(one_unit)    # the height's unit not stated: nothing read by position
+
+
 def test_real_data_tests_say_why_they_skip_and_how_to_run_them(tmp_path: Path) -> None:
     import os
     import subprocess

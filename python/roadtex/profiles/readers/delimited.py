@@ -22,6 +22,7 @@ from roadtex.profiles.readers.text import (
     parse_table,
     parse_value,
     pick_column,
+    split_column_name,
     stated_unit,
 )
 from roadtex.profiles.units import UNITS
@@ -131,11 +132,16 @@ def spacing_in_header(metadata: dict[str, object]) -> str:
 
 def two_columns_by_position(names: list[str], options: dict) -> bool:
     """Whether a two-column table's header names neither a known height nor a known distance column
-    (and no column is named in the options), while both units are given: its columns are then
-    taken by position, distance first, as in a file without a header."""
+    (and no column is named in the options), while both units are certain (given, or stated in the
+    header: ``Abstand (mm);Hoehe (mm)``): its columns are then taken by position, distance first, as
+    in a file without a header. A table the other way round does not pass as one: its first column
+    would have to be evenly spaced positions."""
     if len(names) != 2 or options.get("height_column") is not None or options.get("distance_column") is not None:
         return False
-    if options.get("distance_unit") is None or options.get("height_unit") is None or options.get("dx") is not None:
+    if options.get("dx") is not None:
+        return False
+    units = (options.get("distance_unit"), options.get("height_unit"))
+    if any(given is None and split_column_name(name)[1] is None for given, name in zip(units, names)):
         return False
     for kind, known in (("height", HEIGHT_NAMES), ("distance", DISTANCE_NAMES)):
         try:
@@ -256,11 +262,17 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     # are dropped below; in a heights-only table an empty line is a drop-out on the grid).
     row_numbers = np.arange(table.shape[0])
     if has_header and two_columns_by_position(names, options):
-        # a hand-made export with headers in another language (Abstand;Hoehe) and both units given:
+        # a hand-made export with headers in another language (Abstand;Hoehe) and both units certain:
         # two columns can only be distance then height, as in a header-less file
         d_index, h_index = 0, 1
+        first_column = table[~absent[:, 0], 0]
+        if first_column.size > 1 and not np.all(np.diff(first_column) > 0):
+            raise ProfileFormatError(
+                f"{name}: the header {names} names no known distance or height column, and its first column does "
+                "not increase row by row, so it is no column of positions: name the columns with distance_column and "
+                "height_column (read_profile options or manifest columns)")
         history.append(f"header {names} names no known distance or height column; with two columns and both units "
-                       f"given, the first ({names[0]!r}) is read as the distance and the second ({names[1]!r}) as "
+                       f"certain, the first ({names[0]!r}) is read as the distance and the second ({names[1]!r}) as "
                        "the height")
     elif has_header:
         h_index = pick_column(names, options.get("height_column"), HEIGHT_NAMES, "height", True)
