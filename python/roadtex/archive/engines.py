@@ -69,14 +69,15 @@ def process_local(work: RunWorker, runs: list[dict[str, Any]], sizes: list[int],
     size) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
-    in_flight_limit = local_schedule(threads)
+    cores = usable_cores()   # once a job: the schedule and every run's threads are of the same cores
+    in_flight_limit = local_schedule(threads, cores)
     pending = list(zip(runs, sizes))[::-1]
     with ThreadPoolExecutor(max_workers=in_flight_limit, thread_name_prefix="roadtex-run") as pool:
         in_flight: dict[Any, int] = {}
         try:
             while pending or in_flight:
                 while pending and len(in_flight) < in_flight_limit:
-                    solve_threads = run_threads(threads, len(pending))
+                    solve_threads = run_threads(threads, len(pending), cores)
                     run, size = pending.pop()
                     in_flight[pool.submit(work, run, plan, out, threads=solve_threads, **flags)] = size
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
