@@ -7,7 +7,7 @@ use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use numpy::ndarray::{Array2, Array3, Array4};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4};
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
@@ -18,7 +18,7 @@ use crate::error::{invalid, ContactError, Result};
 use crate::kernel::{fast_len, finite_coefficients, periodic_coefficients, periodic_spectrum, KernelKind};
 use crate::reference::{FlatPunch, Westergaard};
 use crate::solver::{ContactSolver, Material, Method, SolverOptions};
-use crate::surface::{solve_surface as solve_surface_core, solve_surfaces, Grid};
+use crate::surface::{solve_surface as solve_surface_core, solve_surfaces, solve_surfaces_from, Grid};
 use crate::synthetic::self_affine;
 
 /// How a call into the core failed.
@@ -241,7 +241,7 @@ type SolvedSurfaces<'py> = (
 
 /// Every (tile, modulus) pair in parallel. Arrays are indexed [tile, modulus, ...].
 #[pyfunction]
-#[pyo3(signature = (tiles, dx, dy, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false))]
+#[pyo3(signature = (tiles, dx, dy, youngs_moduli, poisson, mean_pressure, periodic, kernel, method, tol, max_iterations, threads=None, warm_start=false, initial_pressure=None))]
 #[allow(clippy::too_many_arguments)]
 fn solve_surface_many<'py>(
     py: Python<'py>,
@@ -258,6 +258,7 @@ fn solve_surface_many<'py>(
     max_iterations: usize,
     threads: Option<usize>,
     warm_start: bool,
+    initial_pressure: Option<PyReadonlyArray4<'py, f64>>,
 ) -> PyResult<SolvedSurfaces<'py>> {
     guarded(py, || {
         let options = options(periodic, kernel, method, tol, max_iterations).map_err(|e| to_py_err(py, e))?;
@@ -267,8 +268,12 @@ fn solve_surface_many<'py>(
         let moduli = youngs_moduli.as_slice()?.to_vec();
         let m = moduli.len();
         let grid = Grid { ny, nx, dx, dy };
+        let initial: Option<Vec<f64>> = initial_pressure.map(|a| a.as_array().iter().copied().collect());
         let solutions = py
-            .detach(|| solve_surfaces(&heights, grid, &moduli, poisson, mean_pressure, options, threads, warm_start))
+            .detach(|| match &initial {
+                Some(initial) => solve_surfaces_from(&heights, grid, &moduli, poisson, mean_pressure, options, threads, initial),
+                None => solve_surfaces(&heights, grid, &moduli, poisson, mean_pressure, options, threads, warm_start),
+            })
             .map_err(|e| to_py_err(py, e))?;
         let mut pressure = Vec::with_capacity(count * m * ny * nx);
         let mut envelope = Vec::with_capacity(count * m * ny * nx);

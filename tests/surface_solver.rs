@@ -3,7 +3,7 @@
 
 use roadtex::compliance::Compliance;
 use roadtex::surface::synthetic::self_affine_surface;
-use roadtex::surface::{solve_surface, solve_surfaces, Grid, SurfaceSolver, SurfaceWorkspace};
+use roadtex::surface::{solve_surface, solve_surfaces, solve_surfaces_from, Grid, SurfaceSolver, SurfaceWorkspace};
 use roadtex::{KernelKind, Material, Method, SolverOptions};
 
 fn rough(ny: usize, nx: usize, seed: u64) -> Vec<f64> {
@@ -54,6 +54,34 @@ fn batch_is_bitwise_identical_whatever_the_thread_count() {
     assert!(one.iter().all(|s| s.converged));
     let fraction = one[0].pressure.iter().filter(|&&p| p > 0.0).count() as f64 / grid.len() as f64;
     assert!((0.1..0.35).contains(&fraction), "{fraction}");
+}
+
+#[test]
+fn batch_from_given_pressures_carries_a_looser_answer_on_and_checks_its_start() {
+    let grid = Grid { ny: 64, nx: 64, dx: 1.0 / 64.0, dy: 1.0 / 64.0 };
+    let tiles: Vec<f64> = (0..2).flat_map(|s| self_affine_surface(64, 1.0, 0.8, 0.1, s)).collect();
+    let moduli = [0.75, 1.5];
+    let loose = SolverOptions { tol: 1e-3, ..Default::default() };
+    let tight = SolverOptions { tol: 1e-8, ..Default::default() };
+    let first = solve_surfaces(&tiles, grid, &moduli, 0.5, 0.01, loose, Some(1), true).unwrap();
+    let start: Vec<f64> = first.iter().flat_map(|s| s.pressure.iter().copied()).collect();
+    let nested = solve_surfaces(&tiles, grid, &moduli, 0.5, 0.01, tight, Some(1), false).unwrap();
+    let one = solve_surfaces_from(&tiles, grid, &moduli, 0.5, 0.01, tight, Some(1), &start).unwrap();
+    let two = solve_surfaces_from(&tiles, grid, &moduli, 0.5, 0.01, tight, Some(2), &start).unwrap();
+    assert_eq!(one, two);
+    assert!(one.iter().all(|s| s.converged && s.residual <= 1e-8));
+    let iterations = |v: &[roadtex::ContactSolution]| v.iter().map(|s| s.iterations).sum::<usize>();
+    assert!(iterations(&one) < iterations(&nested), "{} against {}", iterations(&one), iterations(&nested));
+    // a converged start is kept as it is
+    let again: Vec<f64> = one.iter().flat_map(|s| s.pressure.iter().copied()).collect();
+    let kept = solve_surfaces_from(&tiles, grid, &moduli, 0.5, 0.01, tight, Some(1), &again).unwrap();
+    assert!(kept.iter().all(|s| s.iterations == 0));
+    let short = solve_surfaces_from(&tiles, grid, &moduli, 0.5, 0.01, tight, None, &start[1..]);
+    assert!(format!("{}", short.unwrap_err()).contains("initial_pressure holds"));
+    let mut negative = start.clone();
+    negative[7] = -1.0;
+    let refused = solve_surfaces_from(&tiles, grid, &moduli, 0.5, 0.01, tight, None, &negative);
+    assert!(format!("{}", refused.unwrap_err()).contains("value 7 is -1"));
 }
 
 #[test]

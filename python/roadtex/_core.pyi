@@ -35,7 +35,7 @@ def solve_surface(
 def solve_surface_many(
     tiles: npt.NDArray[np.float64], dx: float, dy: float, youngs_moduli: npt.NDArray[np.float64], poisson: float,
     mean_pressure: float, periodic: bool, kernel: str, method: str, tol: float, max_iterations: int,
-    threads: int | None = None, warm_start: bool = False,
+    threads: int | None = None, warm_start: bool = False, initial_pressure: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.float64],
            npt.NDArray[np.bool_]]: ...
 def influence_coefficients(n: int, dx: float, periodic: bool) -> npt.NDArray[np.float64]: ...

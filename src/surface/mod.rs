@@ -410,6 +410,23 @@ pub fn solve_surfaces(
     threads: Option<usize>,
     warm_start: bool,
 ) -> Result<Vec<ContactSolution>> {
+    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, warm_start, None)
+}
+
+/// [`solve_surfaces`]' body: the chained solves, or each problem from `initial` (or its own
+/// nested start when None).
+#[allow(clippy::too_many_arguments)]
+fn solve_tiles(
+    tiles: &[f64],
+    grid: Grid,
+    youngs_moduli: &[f64],
+    poisson: f64,
+    mean_pressure: f64,
+    options: SolverOptions,
+    threads: Option<usize>,
+    warm_start: bool,
+    initial: Option<&[f64]>,
+) -> Result<Vec<ContactSolution>> {
     validate_grid(&grid)?;
     if tiles.is_empty() || tiles.len() % grid.len() != 0 {
         return invalid("tiles must hold one or more whole surfaces of the grid's shape");
@@ -449,9 +466,41 @@ pub fn solve_surfaces(
             .into_par_iter()
             .map_init(SurfaceWorkspace::default, |workspace, job| {
                 let (t, m) = (job / materials.len(), &materials[job % materials.len()]);
-                solver.solve_from(workspace, tile(t), *m, mean_pressure, None).map_err(|e| named(e, t, m))
+                let guess = initial.map(|all| &all[job * grid.len()..(job + 1) * grid.len()]);
+                solver.solve_from(workspace, tile(t), *m, mean_pressure, guess).map_err(|e| named(e, t, m))
             })
             .collect()
     };
     crate::batch::in_pool(threads, run)
+}
+
+/// [`solve_surfaces`] without the chain, each (tile, modulus) problem started from its own
+/// pressure in `initial` (Pa, tile-major like the results: `tile * moduli.len() + modulus`, each
+/// row-major ny x nx), e.g. an answer at a looser tolerance carried on to a tighter one.
+#[allow(clippy::too_many_arguments)]
+pub fn solve_surfaces_from(
+    tiles: &[f64],
+    grid: Grid,
+    youngs_moduli: &[f64],
+    poisson: f64,
+    mean_pressure: f64,
+    options: SolverOptions,
+    threads: Option<usize>,
+    initial: &[f64],
+) -> Result<Vec<ContactSolution>> {
+    validate_grid(&grid)?;
+    let problems = tiles.len() / grid.len() * youngs_moduli.len(); // validate_grid: ny, nx >= 1
+    if initial.len() != problems * grid.len() {
+        return invalid(format!(
+            "initial_pressure holds {} values, the problems need {} ({} problems x {} points)",
+            initial.len(),
+            problems * grid.len(),
+            problems,
+            grid.len()
+        ));
+    }
+    if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
+        return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
+    }
+    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, false, Some(initial))
 }

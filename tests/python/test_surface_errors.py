@@ -338,7 +338,7 @@ def test_the_pilots_areal_levels_are_those_of_the_rows_it_names(factor: int) -> 
     shift = tile[rows] - lines
     bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
     setup = areal._Setup(MODULI, PRESSURE, 0.5, "third_octave", "dft", 2000, None)
-    pilot, ok, _ = areal._areal_levels(setup, tile[None], DX, DX, 1e-10, rows, factor, shift[None], bands)
+    pilot, ok, _, _ = areal._areal_levels(setup, tile[None], DX, DX, 1e-10, rows, factor, shift[None], bands)
     ours = areal_levels(tile, rows, shift, factor, 1e-10, bands)      # (2, rows x moduli, bands), rows first
     assert ok.all()
     both_silent = np.isneginf(pilot) & np.isneginf(ours)

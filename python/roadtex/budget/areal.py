@@ -15,7 +15,9 @@ budget allows, from a few *pilot* tiles spread evenly along the run:
    (not chained as the job solves them: at this tolerance that is quicker, and only the answers
    count). Refining along the road alone is not enough on 1 mm surfaces: (8, 1) still errs by 4
    to 5 dB where (8, 8) errs by 0.3 dB (``benches/surface_model_grid.py``;
-   docs/guide/model-grid.md, "Surface runs").
+   docs/guide/model-grid.md, "Surface runs"). When no rung below the finest can meet the budget
+   (:func:`top_rung_needed`), the finest is solved first as the job solves it at the loosest
+   candidate tolerance and carried on from there to the reference tolerance (step 3 reuses it).
 2. **Richardson over the ladder**: the converged answer is taken as the finest rung ``L(top)``,
    whose own error is a factor times |L(top) - L(top / 2)|: 1 / (r - 1) for the shrink r of the
    last two steps (the median over levels and bands, :func:`tail_factor`), between
@@ -108,7 +110,7 @@ AREAL_PILOT_POINTS = 2 ** 19
 
 #: The model grid refinements (k along = k across) the pilot tries, cheapest first: the run's k is
 #: one of them (the finest is the converged answer's stand-in, see the module). Not the line pilot's
-#: ladder (roadtex.budget.study.REFINE_LADDER, 1 to 32 with 3, 6, 12, 24 between the powers of two):
+#: ladder (roadtex.budget.study.REFINE_LADDER, 1 to 32 with 3, 5, 6, 10, 12, 20, 24 between the powers of two):
 #: a surface's model grid costs k^2 points, so k = 16 on a 1 mm tile of 0.5 m x 40 mm is already
 #: 5.1 million points, above MAX_MODEL_POINTS; and the surface pilot extrapolates over doublings of k.
 REFINE_LADDER = (1, 2, 4, 8)
@@ -136,6 +138,10 @@ TAIL_FACTOR = 2.0
 #: bands against (32, 32) fell 8.1, 2.7, 0.91, 0.33, 0.13 dB at k = 1, 2, 4, 8, 16: 2.7 to 3 times
 #: per halving (factor 0.5 to 0.6), so 1 leaves room (``benches/surface_model_grid.py``).
 TAIL_FACTOR_MIN = 1.0
+
+#: The largest shrink per halving :func:`top_rung_needed` allows the last step of the ladder
+#: (measured 2.7 to 3.3 on 1 mm surfaces, see :data:`TAIL_FACTOR_MIN`).
+TOP_SHRINK_GUESS = 4.0
 
 
 @dataclass(frozen=True)
@@ -254,8 +260,8 @@ def _line_levels(setup: _Setup, lines: np.ndarray, dx: float, tol: float, refine
 
 
 def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol: float, rows: np.ndarray,
-                  refine: int, shift: np.ndarray, bands: np.ndarray,
-                  as_the_job: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+                  refine: int, shift: np.ndarray, bands: np.ndarray, as_the_job: bool = True,
+                  initial: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """The areal model on tiles ``heights`` (tiles, ny, nx) on a model grid ``refine`` times finer
     each way; levels (2, tiles x lines x moduli, bands) along the analysed data ``rows`` (see the
     module), the envelope moved by ``shift`` (tiles, lines, nx at the data's dx, refined as the road)
@@ -265,19 +271,34 @@ def _areal_levels(setup: _Setup, heights: np.ndarray, dx: float, dy: float, tol:
     start, the moduli in parallel. At the reference tolerance the chain takes no fewer iterations
     (the demo's dense asphalt window at k = 8: 76, 73, 63, 60 chained against 76, 68, 59, 48), and
     the demo's three windows at k = 1 to 8 took 14.6 s unchained against 19.6 s chained (best of
-    2; 15.3 s each rung started from the one below, prolonged)."""
+    2; 15.3 s each rung started from the one below, prolonged). ``initial``: each problem started
+    from its own pressure (tiles, moduli, ny k, nx k; Pa), unchained. Returns the levels, which
+    are reported, the work and the pressures (tiles, moduli, ny k, nx k; Pa)."""
     fine = refine_periodic_surface(heights, refine, refine, setup.interpolant)
     solved = contact_surface_many(fine, dx / refine, dy / refine, youngs_modulus=setup.moduli,
                                   mean_pressure=setup.mean_pressure, poisson=setup.poisson, tol=tol,
                                   max_iterations=setup.max_iterations, threads=setup.threads,
-                                  warm_start=as_the_job, raise_on_nonconvergence=False)
+                                  warm_start=as_the_job and initial is None, raise_on_nonconvergence=False,
+                                  initial_pressure=initial)
     rows = np.asarray(rows, dtype=np.int64)
     # (tiles, moduli, lines, x) -> (tiles, lines, moduli, x)
     envelope = np.moveaxis(solved.envelope[:, :, rows * refine, :], 1, 2)
     pressure = np.moveaxis(row_strips(solved.pressure, rows, refine), 1, 2)
     envelope = envelope - refine_periodic(shift, refine, setup.interpolant)[:, :, None, :]
     levels, ok = contact_levels(envelope, pressure, dx / refine, bands, setup.kind, setup.method)
-    return levels, ok, solver_work(solved.iterations, fine.shape[1] * fine.shape[2])
+    return levels, ok, solver_work(solved.iterations, fine.shape[1] * fine.shape[2]), solved.pressure
+
+
+def top_rung_needed(step_below: float, window_factor: float, budget_db: float) -> bool:
+    """Whether no rung below the ladder's finest can be within ``budget_db`` (dB), judged before
+    the finest is solved from the areal model's worst budget-band step ``step_below`` between the
+    two rungs below it (dB, extended to the run's rows): the next step shrinks at most
+    :data:`TOP_SHRINK_GUESS` times (measured 2.7 to 3.3 per halving on 1 mm surfaces), and the
+    rung below the finest then states at least (1 + :data:`TAIL_FACTOR_MIN`) times that step,
+    times ``window_factor``. Only the pilot's cost rides on it: when a rung below is chosen
+    after all, the finest rung's job-like solve was made for nothing (its reference is right
+    either way)."""
+    return window_factor * (1.0 + TAIL_FACTOR_MIN) * step_below / TOP_SHRINK_GUESS > budget_db
 
 
 def tail_factor(last: np.ndarray, before: np.ndarray | None) -> float:
@@ -350,7 +371,7 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     def solve(model: str, tol: float, k: int, as_the_job: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
         if model == "line":
             return _line_levels(setup, flat, dx, tol, k, bands)
-        return _areal_levels(setup, heights, dx, dy, tol, rows, k, shift, bands, as_the_job)
+        return _areal_levels(setup, heights, dx, dy, tol, rows, k, shift, bands, as_the_job)[:3]
 
     def spread(measured: np.ndarray, ok: np.ndarray) -> np.ndarray:
         """(2, bands): the differences (2, pilot rows, bands) extended to every row of the run. A
@@ -360,8 +381,32 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         return extreme(np.moveaxis(sample, 1, 0), run_rows)
 
     scale = {"line": 1.0, "areal": window_factor}   # a window's areal estimate, scaled up as a whole
-    solved = {model: {k: solve(model, REFERENCE_TOL, k, as_the_job=False) for k in ladder} for model in MODELS}
     top, below = ladder[-1], ladder[-2]
+    points = int(np.prod(heights.shape[1:])) if tile_points is None else int(tile_points)
+    choices = ladder[:1] if refine is not None else tuple(
+        c for c in ladder if c == 1 or points * c ** 2 <= MAX_MODEL_POINTS)
+    candidates = sorted(tols, reverse=True)
+    solved = {model: {k: solve(model, REFERENCE_TOL, k, as_the_job=False) for k in ladder[:-1]} for model in MODELS}
+    solved["line"][top] = solve("line", REFERENCE_TOL, top)
+    # The finest rung is the dearest solve and, on surfaces the data leave coarse, the run's k: its
+    # job-like solve at the loosest tol is then made first and carried on to the reference tol
+    # (each modulus from its own answer there), a third to a half fewer iterations than the
+    # reference from its nested start (the demo's three 16-row windows at k = 8: 1.1 to 1.9 s
+    # against 2.0 to 2.7 s, 2026-12-02); the candidate is kept for the tolerance step below.
+    kept: dict[tuple[str, float, int], tuple[np.ndarray, np.ndarray, float]] = {}
+    step_below = (worst_in_budget({"areal": spread(difference(solved["areal"][below][0], solved["areal"][ladder[-3]][0]),
+                                                   solved["areal"][below][1]).max(axis=0)}, budget_mask)
+                  if len(ladder) >= 3 else 0.0)
+    if (top in choices and candidates[0] > REFERENCE_TOL
+            and top_rung_needed(step_below, window_factor, budget_db)):
+        first = _areal_levels(setup, heights, dx, dy, candidates[0], rows, top, shift, bands)
+        kept[("areal", candidates[0], top)] = first[:3]
+        carried = _areal_levels(setup, heights, dx, dy, REFERENCE_TOL, rows, top, shift, bands, as_the_job=False,
+                                initial=first[3])
+        # the reference's work from the job's own start: the candidate's and the rest of the way
+        solved["areal"][top] = (carried[0], carried[1], first[2] + carried[2])
+    else:
+        solved["areal"][top] = solve("areal", REFERENCE_TOL, top, as_the_job=False)
     # Richardson over the ladder: the finest rung stands for the converged answer, its own error
     # the tail factor x its last step; each rung's error is its distance from the finest plus that
     grid: dict[int, dict[str, np.ndarray]] = {}
@@ -374,9 +419,6 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
             step = 0.0 if k == top else spread(difference(solved[model][k][0], finest), ok_top)
             grid.setdefault(k, {})[model] = (step + tail) * scale[model]
     worst = {k: worst_in_budget({m: grid[k][m].max(axis=0) for m in MODELS}, budget_mask) for k in ladder}
-    points = int(np.prod(heights.shape[1:])) if tile_points is None else int(tile_points)
-    choices = ladder[:1] if refine is not None else tuple(
-        c for c in ladder if c == 1 or points * c ** 2 <= MAX_MODEL_POINTS)
     best = min(worst[k] for k in choices)
     allowed_k = budget_db if best <= budget_db else 1.05 * best + 0.01
     k = next(c for c in choices if worst[c] <= allowed_k or c == choices[-1])
@@ -385,7 +427,6 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
     floor = worst[k]
     # within the budget when the grid allows it; else near the floor (as the line runs' pilot)
     allowed = budget_db if floor <= budget_db else 1.05 * floor + 0.01
-    candidates = sorted(tols, reverse=True)
     if not np.isfinite(floor):   # no bounded sample in some budget band: nothing to judge a loose tol by
         candidates = candidates[-1:]
     for tol in candidates:
@@ -393,6 +434,8 @@ def surface_level_errors(heights: np.ndarray, lines: np.ndarray, shift: np.ndarr
         for model in MODELS:
             if tol == REFERENCE_TOL:   # the reference itself: no tolerance error left to measure
                 levels, ok, w = reference[model]
+            elif (model, tol, k) in kept:
+                levels, ok, w = kept[(model, tol, k)]
             else:
                 levels, ok, w = solve(model, tol, k)
             job_work += w

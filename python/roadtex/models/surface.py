@@ -23,7 +23,7 @@ from roadtex._checks import (
     to_float,
     warn_if_implausible_rubber,
 )
-from roadtex.errors import ConvergenceError
+from roadtex.errors import ConvergenceError, InvalidInputError
 from roadtex.models.contact import Kernel, Method
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.surfaces.surface import Surface
@@ -185,6 +185,17 @@ def contact_surface(
     return SurfaceResult(z, dx_f, dy_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
 
 
+def _initial_tiles(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
+    """``initial_pressure`` (tiles, moduli, ny, nx) checked against the problems (as the core takes it)."""
+    initial = np.asarray(initial_pressure, dtype=np.float64)
+    wanted = (shape[0], n_moduli, shape[1], shape[2])
+    if initial.shape != wanted:
+        raise InvalidInputError(f"initial_pressure must have shape (tiles, moduli, ny, nx) = {wanted}, got {initial.shape}")
+    if not np.all(np.isfinite(initial)) or (initial < 0).any():
+        raise InvalidInputError("initial_pressure must be finite pressures >= 0 (Pa)")
+    return np.ascontiguousarray(initial)
+
+
 def contact_surface_many(
     tiles: np.ndarray | Sequence[Sequence[Sequence[float]]],
     dx: float,
@@ -201,6 +212,7 @@ def contact_surface_many(
     threads: int | None = None,
     warm_start: bool = False,
     raise_on_nonconvergence: bool = True,
+    initial_pressure: np.ndarray | None = None,
 ) -> SurfaceBatch:
     """Solves :func:`contact_surface` for every tile of a stack and every modulus, in parallel.
 
@@ -214,6 +226,10 @@ def contact_surface_many(
             usable core or 64, whichever is more (more only contend for the cores).
         warm_start: solve each tile's moduli in the order given, each CG solve starting from the
             previous modulus's solution: fewer iterations, results within ``tol`` of cold solves.
+        initial_pressure: (tiles, moduli, ny, nx) pressures (Pa, >= 0), each problem's own start
+            (e.g. an answer at a looser tol carried on to a tighter one); the problems then run in
+            parallel, unchained (not with ``warm_start``). None: each cold problem from its nested
+            start.
         Other arguments: as for :func:`contact_surface`.
 
     Returns:
@@ -227,9 +243,14 @@ def contact_surface_many(
     if heights.size:
         warn_if_implausible_texture(heights.reshape(-1, heights.shape[-1]), dx_f, "tiles", row="surface row")
     warn_if_implausible_rubber(moduli, p_f)
+    initial = None
+    if initial_pressure is not None:
+        if warm_start:
+            raise InvalidInputError("initial_pressure gives every problem its own start: leave warm_start False")
+        initial = _initial_tiles(initial_pressure, heights.shape, moduli.size)
     pressure, envelope, iterations, residual, converged = _core.solve_surface_many(
         heights, dx_f, dy_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
-        to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start),
+        to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start), initial,
     )
     if raise_on_nonconvergence and not converged.all():
         bad = np.argwhere(~converged)
