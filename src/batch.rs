@@ -157,19 +157,8 @@ pub fn solve_many_from(
 ) -> Result<Vec<ContactSolution>> {
     let (materials, solver) = prepare(segments, dx, youngs_moduli, poisson, mean_pressure, options)?;
     let jobs = segments.count() * materials.len();
-    if initial.len() != jobs * segments.len {
-        return invalid(format!(
-            "initial_pressure holds {} values, the problems need {} ({} segments x {} moduli x {} points)",
-            initial.len(),
-            jobs * segments.len,
-            segments.count(),
-            materials.len(),
-            segments.len
-        ));
-    }
-    if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
-        return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
-    }
+    let problems = format!("{} segments x {} moduli x {} points", segments.count(), materials.len(), segments.len);
+    check_initial_pressure(initial, jobs * segments.len, &problems)?;
     let run = || {
         (0..jobs)
             .into_par_iter()
@@ -183,6 +172,18 @@ pub fn solve_many_from(
             .collect::<Result<Vec<_>>>()
     };
     in_pool(threads, run)
+}
+
+/// `initial` (the problems' starting pressures, Pa) holds `needed` values (`problems` says of what)
+/// and every one is finite and >= 0.
+pub(crate) fn check_initial_pressure(initial: &[f64], needed: usize, problems: &str) -> Result<()> {
+    if initial.len() != needed {
+        return invalid(format!("initial_pressure holds {} values, the problems need {needed} ({problems})", initial.len()));
+    }
+    if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
+        return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
+    }
+    Ok(())
 }
 
 /// The process that loaded the module (set by the Python binding's module init).

@@ -490,17 +490,6 @@ pub fn solve_surfaces_from(
 ) -> Result<Vec<ContactSolution>> {
     validate_grid(&grid)?;
     let problems = tiles.len() / grid.len() * youngs_moduli.len(); // validate_grid: ny, nx >= 1
-    if initial.len() != problems * grid.len() {
-        return invalid(format!(
-            "initial_pressure holds {} values, the problems need {} ({} problems x {} points)",
-            initial.len(),
-            problems * grid.len(),
-            problems,
-            grid.len()
-        ));
-    }
-    if let Some(bad) = initial.iter().position(|p| !p.is_finite() || *p < 0.0) {
-        return invalid(format!("initial_pressure must be finite and >= 0 (Pa), value {bad} is {}", initial[bad]));
-    }
+    crate::batch::check_initial_pressure(initial, problems * grid.len(), &format!("{problems} problems x {} points", grid.len()))?;
     solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, false, Some(initial))
 }

@@ -6,7 +6,6 @@ the nested reference's."""
 from __future__ import annotations
 
 import numpy as np
-import polars as pl
 import pytest
 
 from roadtex.budget import areal
@@ -15,9 +14,8 @@ from roadtex.errors import InvalidInputError
 from roadtex.models import surface as surface_model
 from roadtex.models.grid import refine_periodic_surface
 from roadtex.models.surface import contact_surface_many
-from roadtex.profiles.trend import remove_lines
-from roadtex.spectra.levels import band_levels
 from roadtex.surfaces import synthetic_surface
+from test_surface_errors import pilot_at
 
 MODULI = np.array([2e6, 1e7])
 PRESSURE = 2e5
@@ -75,16 +73,8 @@ def test_initial_pressures_of_the_wrong_shape_or_sign_or_with_a_chain_are_refuse
 
 
 def pilot(budget_db: float) -> areal.SurfaceErrors:
-    surface = synthetic_surface("dense_asphalt", 0.128, 0.016, DX, seed=5)
-    tile = surface.heights - surface.heights.mean()
-    rows = np.array([0, 5, 10, 15])
-    lines = remove_lines(tile[rows])[0]
-    bands = band_levels(lines, DX, periodic=True).bands.filter(pl.col("reported"))["band"].to_numpy()
-    return areal.surface_level_errors(
-        tile[None], lines[None], (tile[rows] - lines)[None], rows, DX, DX, bands=bands,
-        in_budget=np.ones(bands.size, bool), run_rows=rows.size * MODULI.size, youngs_moduli=MODULI,
-        mean_pressure=PRESSURE, poisson=0.5, tols=DEFAULT_TOLERANCES, budget_db=budget_db, band_kind="third_octave",
-        band_method="dft", max_iterations=2000, threads=None, refine=None)
+    """test_surface_errors' pilot of a dense asphalt tile, its k chosen (1, 2, 4, 8)."""
+    return pilot_at(DEFAULT_TOLERANCES, budget_db, refine=None)
 
 
 def test_the_finest_rungs_reference_is_carried_on_from_its_job_like_solve(monkeypatch: pytest.MonkeyPatch) -> None:
