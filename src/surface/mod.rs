@@ -410,11 +410,22 @@ pub fn solve_surfaces(
     threads: Option<usize>,
     warm_start: bool,
 ) -> Result<Vec<ContactSolution>> {
-    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, warm_start, None)
+    let start = if warm_start { Start::Chained } else { Start::Nested };
+    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, start)
 }
 
-/// [`solve_surfaces`]' body: the chained solves, or each problem from `initial` (or its own
-/// nested start when None).
+/// How each problem of a batch starts.
+#[derive(Clone, Copy)]
+enum Start<'a> {
+    /// Every (tile, modulus) from its own nested start, in parallel.
+    Nested,
+    /// Each tile's moduli in order, each from the previous one's answer.
+    Chained,
+    /// Every (tile, modulus) from its own pressure (Pa, tile-major, each ny x nx), in parallel.
+    Given(&'a [f64]),
+}
+
+/// [`solve_surfaces`]' and [`solve_surfaces_from`]'s body.
 #[allow(clippy::too_many_arguments)]
 fn solve_tiles(
     tiles: &[f64],
@@ -424,8 +435,7 @@ fn solve_tiles(
     mean_pressure: f64,
     options: SolverOptions,
     threads: Option<usize>,
-    warm_start: bool,
-    initial: Option<&[f64]>,
+    start: Start<'_>,
 ) -> Result<Vec<ContactSolution>> {
     validate_grid(&grid)?;
     if tiles.is_empty() || tiles.len() % grid.len() != 0 {
@@ -437,6 +447,14 @@ fn solve_tiles(
     let materials: Vec<Material> = youngs_moduli.iter().map(|&e| Material::new(e, poisson)).collect::<Result<_>>()?;
     let tile = |t: usize| &tiles[t * grid.len()..(t + 1) * grid.len()];
     let count = tiles.len() / grid.len();
+    let initial = match start {
+        Start::Given(initial) => {
+            let problems = format!("{count} tiles x {} moduli x {} points", materials.len(), grid.len());
+            crate::batch::check_initial_pressure(initial, count * materials.len() * grid.len(), &problems)?;
+            Some(initial)
+        }
+        Start::Nested | Start::Chained => None,
+    };
     for t in 0..count {
         validate_surface(&grid, tile(t), mean_pressure).map_err(|e| ContactError::InvalidInput(format!("tile {t}: {e}")))?;
     }
@@ -446,7 +464,7 @@ fn solve_tiles(
         other => other,
     };
     let run = || -> Result<Vec<ContactSolution>> {
-        if warm_start {
+        if matches!(start, Start::Chained) {
             let chains = (0..count)
                 .into_par_iter()
                 .map_init(SurfaceWorkspace::default, |workspace, t| {
@@ -488,8 +506,5 @@ pub fn solve_surfaces_from(
     threads: Option<usize>,
     initial: &[f64],
 ) -> Result<Vec<ContactSolution>> {
-    validate_grid(&grid)?;
-    let problems = tiles.len() / grid.len() * youngs_moduli.len(); // validate_grid: ny, nx >= 1
-    crate::batch::check_initial_pressure(initial, problems * grid.len(), &format!("{problems} problems x {} points", grid.len()))?;
-    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, false, Some(initial))
+    solve_tiles(tiles, grid, youngs_moduli, poisson, mean_pressure, options, threads, Start::Given(initial))
 }

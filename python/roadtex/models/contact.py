@@ -97,16 +97,21 @@ def contact(
     return ContactResult(z, dx_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
 
 
+def checked_initial_pressure(initial_pressure: np.ndarray, wanted: tuple[int, ...], axes: str) -> np.ndarray:
+    """``initial_pressure`` as float64 (Pa), refused unless of shape ``wanted`` (``axes`` names
+    them) and finite and >= 0: the one check of the problems' given starts, lines and surfaces."""
+    initial = np.asarray(initial_pressure, dtype=np.float64)
+    if initial.shape != wanted:
+        raise InvalidInputError(f"initial_pressure must have shape ({axes}) = {wanted}, got {initial.shape}")
+    if not np.all(np.isfinite(initial)) or (initial < 0).any():
+        raise InvalidInputError("initial_pressure must be finite pressures >= 0 (Pa)")
+    return initial
+
+
 def _initial_rows(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
     """``initial_pressure`` (segments, moduli, N) checked against the problems and flattened to one
     row per problem, segment-major (as the core takes it)."""
-    initial = np.asarray(initial_pressure, dtype=np.float64)
-    wanted = (shape[0], n_moduli, shape[1])
-    if initial.shape != wanted:
-        raise InvalidInputError(f"initial_pressure must have shape (segments, moduli, points) = {wanted}, "
-                                f"got {initial.shape}")
-    if not np.all(np.isfinite(initial)) or (initial < 0).any():
-        raise InvalidInputError("initial_pressure must be finite pressures >= 0 (Pa)")
+    initial = checked_initial_pressure(initial_pressure, (shape[0], n_moduli, shape[1]), "segments, moduli, points")
     return np.ascontiguousarray(initial.reshape(shape[0] * n_moduli, shape[1]))
 
 

@@ -24,7 +24,7 @@ from roadtex._checks import (
     warn_if_implausible_rubber,
 )
 from roadtex.errors import ConvergenceError, InvalidInputError
-from roadtex.models.contact import Kernel, Method
+from roadtex.models.contact import Kernel, Method, checked_initial_pressure
 from roadtex.profiles.plausibility import warn_if_implausible_texture
 from roadtex.surfaces.surface import Surface
 
@@ -185,17 +185,6 @@ def contact_surface(
     return SurfaceResult(z, dx_f, dy_f, pressure, envelope, iterations, residual, converged, e_f, nu_f, p_f)
 
 
-def _initial_tiles(initial_pressure: np.ndarray, shape: tuple[int, ...], n_moduli: int) -> np.ndarray:
-    """``initial_pressure`` (tiles, moduli, ny, nx) checked against the problems (as the core takes it)."""
-    initial = np.asarray(initial_pressure, dtype=np.float64)
-    wanted = (shape[0], n_moduli, shape[1], shape[2])
-    if initial.shape != wanted:
-        raise InvalidInputError(f"initial_pressure must have shape (tiles, moduli, ny, nx) = {wanted}, got {initial.shape}")
-    if not np.all(np.isfinite(initial)) or (initial < 0).any():
-        raise InvalidInputError("initial_pressure must be finite pressures >= 0 (Pa)")
-    return np.ascontiguousarray(initial)
-
-
 def contact_surface_many(
     tiles: np.ndarray | Sequence[Sequence[Sequence[float]]],
     dx: float,
@@ -247,7 +236,8 @@ def contact_surface_many(
     if initial_pressure is not None:
         if warm_start:
             raise InvalidInputError("initial_pressure gives every problem its own start: leave warm_start False")
-        initial = _initial_tiles(initial_pressure, heights.shape, moduli.size)
+        initial = np.ascontiguousarray(checked_initial_pressure(
+            initial_pressure, (heights.shape[0], moduli.size, *heights.shape[1:]), "tiles, moduli, ny, nx"))
     pressure, envelope, iterations, residual, converged = _core.solve_surface_many(
         heights, dx_f, dy_f, np.ascontiguousarray(moduli), nu_f, p_f, bool(periodic), kernel, method,
         to_float(tol, "tol"), positive_int(max_iterations, "max_iterations"), threads, bool(warm_start), initial,
