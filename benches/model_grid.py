@@ -6,6 +6,7 @@ and (issue 39) one at 1 mm, the three CAPTIF files averaged to 1 mm and CAPTIF a
     .venv/bin/python benches/model_grid.py --km 1 --check-runs 2
     .venv/bin/python benches/model_grid.py --km 1 --km-1mm 0.8 --captif --no-demo
     .venv/bin/python benches/model_grid.py --km 1 --km-1mm 1 --no-demo --check-runs 2 --repeats 3
+    .venv/bin/python benches/model_grid.py --km 1 --km-1mm 1 --no-demo --check-runs 0 --line-tolerances 3e-3,1e-3,1e-4,1e-6
 
 Per archive it also prints stated / actual (median and least over the budget bands, each band at its row
 nearest its statement: every row states its own error) and the chosen k
@@ -157,7 +158,15 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=0,
                         help="then time both jobs this many more times each, alternated in fresh folders, and "
                              "print every ratio and their median (0: the one run above only)")
+    parser.add_argument("--line-tolerances", default=None,
+                        help="a probe: the line pilots' candidate tolerances, comma-separated (default "
+                             "roadtex.budget.study.DEFAULT_TOLERANCES); with --check-runs 0 every row shows "
+                             "whether the statements still hold")
     args = parser.parse_args()
+    if args.line_tolerances:
+        # the job has no option for it (the candidates are the pilot's rule): the pilot's own name, replaced
+        import roadtex.budget.pilot as line_pilot
+        line_pilot.DEFAULT_TOLERANCES = tuple(float(t) for t in args.line_tolerances.split(","))
     work = Path(args.work or tempfile.mkdtemp(prefix="model-grid-"))
     kinds = ("dense_asphalt", "porous_asphalt", "cement_concrete", "surface_dressing")
     archives = {} if args.no_demo else {"demo (6 runs x 4 m, 0.5 mm)": write_synthetic_archive(work / "demo")}
