@@ -101,12 +101,9 @@ REFERENCE_TOL = 1e-6
 #: on the monotone cubic road the line pilots chose it for every group of a 1 km archive at 0.5 mm
 #: (k = 3 to 6), with 15 % fewer iterations than at 1e-4 and the same k; each candidate's error is
 #: measured against the reference like every other, so a tol that moves the levels is not chosen.
-#: Nothing looser: 3e-3 as a line candidate (chosen by the pilots of every group but surface
-#: dressing at 0.5 mm, 12 to 15 % less solve time there) left 18 of 99,840 levels of the 1 km archive
-#: at 0.5 mm and 12 of 99,840 at 1 mm erring more than stated against k = 32 (none at 1e-3; with 1e-2
-#: as well, the same 18 and 12): a loose tol's level errors have a tail (on a dense asphalt run at
-#: k = 4, 3e-2 erred by 1.65 dB at most where 95 % of its levels were within 0.07 dB) that 12 pilot
-#: segments do not sample (issue 39, 2026-12-02, ``benches/model_grid.py --line-tolerances``).
+#: Nothing looser: with 3e-3 (or 1e-2) as a candidate, 18 and 12 of 99,840 levels of the 1 km archives
+#: erred more than stated (none at 1e-3): a loose tol's errors have a tail 12 pilot segments miss
+#: (issue 39, ``benches/model_grid.py --line-tolerances``, benches/HISTORY-0.5.8.md).
 DEFAULT_TOLERANCES = (1e-3, 1e-4, REFERENCE_TOL)
 
 #: Pilot segments per run (or per group of runs), spread evenly along it: 12, measured (see
