@@ -101,9 +101,8 @@ REFERENCE_TOL = 1e-6
 #: on the monotone cubic road the line pilots chose it for every group of a 1 km archive at 0.5 mm
 #: (k = 3 to 6), with 15 % fewer iterations than at 1e-4 and the same k; each candidate's error is
 #: measured against the reference like every other, so a tol that moves the levels is not chosen.
-#: Nothing looser: with 3e-3 (or 1e-2) as a candidate, 18 and 12 of 99,840 levels of the 1 km archives
-#: erred more than stated (none at 1e-3): a loose tol's errors have a tail 12 pilot segments miss
-#: (issue 39, ``benches/model_grid.py --line-tolerances``, benches/HISTORY-0.5.8.md).
+#: Nothing looser: with 3e-3, rows erred more than stated (a tail 12 pilot segments miss; issue 39,
+#: ``benches/model_grid.py --line-tolerances``, benches/HISTORY-0.5.8.md).
 DEFAULT_TOLERANCES = (1e-3, 1e-4, REFERENCE_TOL)
 
 #: Pilot segments per run (or per group of runs), spread evenly along it: 12, measured (see
