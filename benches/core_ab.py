@@ -1,0 +1,145 @@
+"""Two builds of the Rust core against each other, alternated (a benchmark: it prints, it never fails
+on a number).
+
+    .venv/bin/python benches/core_ab.py job MANIFEST [MANIFEST ...] --builds BASE.so CANDIDATE.so [--pairs 4]
+    .venv/bin/python benches/core_ab.py solves --builds BASE.so CANDIDATE.so [--pairs 3]
+
+Make each build with ``maturin develop --release`` and copy ``python/roadtex/_core.abi3.so`` away
+(the solver's constants are compiled in, so a Python-level switch cannot compare them). Every run is
+a fresh process with that build swapped in (a new file renamed over the installed one, which is put
+back at the end); the order is swapped every pair, so a machine's drift falls on both.
+
+``job``: the bulk job (default options, pilots made each time, ``force=True``) on each manifest;
+printed: every time, the medians and the k each run got. ``solves``: one thread, best of 5, a
+model-grid solve of 0.5 m segments as the job makes it (four moduli chained, the data grid's answer
+as the start, tol 1e-3) for cement concrete, dense and porous asphalt at 0.5 mm (k = 5) and 1 mm
+(k = 8), and cold self-affine profiles of 2^12 and 2^14 points at tol 1e-8; printed: ms per batch
+and mean iterations. The CPU clock of this machine steps by about 2 ms, so each batch is tens of ms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+JOB = r"""
+import json, sys, time, warnings
+import polars as pl
+from roadtex.archive import ProcessingOptions, process
+started = time.perf_counter()
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore")
+    process(sys.argv[1], sys.argv[2], ProcessingOptions(), quiet=True, force=True)
+seconds = time.perf_counter() - started
+runs = pl.read_parquet(sys.argv[2] + "/runs.parquet")
+print(json.dumps({"seconds": seconds, "k": sorted(set(runs["refine"].drop_nulls().to_list()))}))
+"""
+
+SOLVES = r"""
+import importlib, json, time
+import numpy as np
+from roadtex import _core
+from roadtex.models.grid import refine_periodic
+from roadtex.profiles.pavements import synthetic_pavement
+contact_many = importlib.import_module("roadtex.models.contact").contact_many
+out = {}
+def best(name, solve):
+    times, batch = [], None
+    for _ in range(5):
+        started = time.perf_counter()
+        batch = solve()
+        times.append(time.perf_counter() - started)
+    out[name] = [1e3 * min(times), float(np.mean(batch.iterations))]
+moduli = [1e6, 2e6, 5e6, 1e7]
+for kind in ("cement_concrete", "dense_asphalt", "porous_asphalt"):
+    for dx, k in ((5e-4, 5), (1e-3, 8)):
+        z = np.asarray(synthetic_pavement(kind, 6.0, dx, seed=3).heights)
+        m = int(round(0.5 / dx))
+        fine = np.array([refine_periodic(z[i * m:(i + 1) * m], k) for i in range(len(z) // m)])
+        best(f"{kind} {dx * 1e3:g} mm k={k}", lambda: contact_many(
+            fine, dx / k, moduli, 2e5, tol=1e-3, threads=1, warm_start=True, coarse_start=k))
+for log2 in (12, 14):
+    n = 1 << log2
+    segs = np.array([_core.self_affine_profile(n, 0.5, 0.8, 0.1, 0.25, seed) for seed in range(6)])
+    best(f"self-affine 2^{log2} cold 1e-8", lambda: contact_many(segs, 0.5 / n, [1e6], 2e5, tol=1e-8, threads=1))
+print(json.dumps(out))
+"""
+
+
+def installed_core() -> Path:
+    """The extension module the venv imports (found in a child: this process never loads it)."""
+    origin = subprocess.run([sys.executable, "-c", "import importlib.util as u; print(u.find_spec('roadtex._core').origin)"],
+                            capture_output=True, text=True, check=True).stdout.strip()
+    return Path(origin)
+
+
+def swap_in(build: Path, target: Path) -> None:
+    # A new file renamed over the old one: a process still mapping the old file keeps its pages.
+    staged = target.with_suffix(".staged")
+    shutil.copyfile(build, staged)
+    os.chmod(staged, 0o755)
+    os.replace(staged, target)
+
+
+def run(code: str, *args: str) -> dict:
+    result = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, check=True)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("what", choices=("job", "solves"))
+    parser.add_argument("manifests", nargs="*")
+    parser.add_argument("--builds", nargs=2, required=True, type=Path, metavar=("BASE", "CANDIDATE"))
+    parser.add_argument("--pairs", type=int, default=None)
+    args = parser.parse_args()
+    if args.what == "job" and not args.manifests:
+        parser.error("job needs at least one manifest")
+    pairs = args.pairs or (4 if args.what == "job" else 3)
+    target = installed_core()
+    work = Path(tempfile.mkdtemp(prefix="core-ab-"))
+    original = work / "installed.so"
+    shutil.copyfile(target, original)
+    names = [build.name for build in args.builds]
+    try:
+        for manifest in args.manifests if args.what == "job" else [None]:
+            results: dict[str, list[dict]] = {name: [] for name in names}
+            for pair in range(pairs):
+                for build in args.builds if pair % 2 == 0 else args.builds[::-1]:
+                    swap_in(build, target)
+                    if manifest is None:
+                        results[build.name].append(run(SOLVES))
+                    else:
+                        results[build.name].append(run(JOB, manifest, str(work / f"out-{build.stem}")))
+            report(manifest, results)
+    finally:
+        swap_in(original, target)
+
+
+def report(manifest: str | None, results: dict[str, list[dict]]) -> None:
+    if manifest is not None:
+        print(f"{manifest}:")
+        for name, runs in results.items():
+            seconds = [r["seconds"] for r in runs]
+            print(f"  {name}: {', '.join(f'{s:.2f}' for s in seconds)} s, median {statistics.median(seconds):.2f} s; "
+                  f"k {runs[-1]['k']}")
+        return
+    first = next(iter(results.values()))[0]
+    print(f"{'case':36s}" + "".join(f"{name:>26s}" for name in results))
+    for case in first:
+        cells = []
+        for runs in results.values():
+            times = [r[case][0] for r in runs]
+            cells.append(f"{statistics.median(times):9.1f} ms ({min(times):.1f}) {runs[-1][case][1]:5.1f} it")
+        print(f"{case:36s}" + "".join(f"{c:>26s}" for c in cells))
+
+
+if __name__ == "__main__":
+    main()
