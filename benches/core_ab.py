@@ -47,7 +47,7 @@ import importlib, json, time
 import numpy as np
 from roadtex import _core
 from roadtex.models.grid import refine_periodic
-from roadtex.profiles.pavements import synthetic_pavement
+from roadtex import synthetic_pavement
 contact_many = importlib.import_module("roadtex.models.contact").contact_many
 out = {}
 def best(name, solve):
@@ -60,9 +60,8 @@ def best(name, solve):
 moduli = [1e6, 2e6, 5e6, 1e7]
 for kind in ("cement_concrete", "dense_asphalt", "porous_asphalt"):
     for dx, k in ((5e-4, 5), (1e-3, 8)):
-        z = np.asarray(synthetic_pavement(kind, 6.0, dx, seed=3).heights)
-        m = int(round(0.5 / dx))
-        fine = np.array([refine_periodic(z[i * m:(i + 1) * m], k) for i in range(len(z) // m)])
+        segments = synthetic_pavement(kind, 6.0, dx, seed=3).segments(0.5).heights
+        fine = np.array([refine_periodic(segment, k) for segment in segments])
         best(f"{kind} {dx * 1e3:g} mm k={k}", lambda: contact_many(
             fine, dx / k, moduli, 2e5, tol=1e-3, threads=1, warm_start=True, coarse_start=k))
 for log2 in (12, 14):
@@ -107,20 +106,20 @@ def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="core-ab-"))
     original = work / "installed.so"
     shutil.copyfile(target, original)
-    names = [build.name for build in args.builds]
+    # Keyed by role, not file name: a build against itself (the noise floor) stays two columns.
+    roles = {"base": args.builds[0], "candidate": args.builds[1]}
     try:
         for manifest in args.manifests if args.what == "job" else [None]:
-            results: dict[str, list[dict]] = {name: [] for name in names}
+            results: dict[str, list[dict]] = {f"{role} ({build.name})": [] for role, build in roles.items()}
             for pair in range(pairs):
-                for build in args.builds if pair % 2 == 0 else args.builds[::-1]:
-                    swap_in(build, target)
-                    if manifest is None:
-                        results[build.name].append(run(SOLVES))
-                    else:
-                        results[build.name].append(run(JOB, manifest, str(work / f"out-{build.stem}")))
+                for role in ("base", "candidate") if pair % 2 == 0 else ("candidate", "base"):
+                    swap_in(roles[role], target)
+                    runs = results[f"{role} ({roles[role].name})"]
+                    runs.append(run(SOLVES) if manifest is None else run(JOB, manifest, str(work / f"out-{role}")))
             report(manifest, results)
     finally:
         swap_in(original, target)
+        shutil.rmtree(work, ignore_errors=True)
 
 
 def report(manifest: str | None, results: dict[str, list[dict]]) -> None:
@@ -132,13 +131,13 @@ def report(manifest: str | None, results: dict[str, list[dict]]) -> None:
                   f"k {runs[-1]['k']}")
         return
     first = next(iter(results.values()))[0]
-    print(f"{'case':36s}" + "".join(f"{name:>26s}" for name in results))
+    print(f"{'case':36s}" + "".join(f"{name:>30s}" for name in results))
     for case in first:
         cells = []
         for runs in results.values():
             times = [r[case][0] for r in runs]
             cells.append(f"{statistics.median(times):9.1f} ms ({min(times):.1f}) {runs[-1][case][1]:5.1f} it")
-        print(f"{case:36s}" + "".join(f"{c:>26s}" for c in cells))
+        print(f"{case:36s}" + "".join(f"{c:>30s}" for c in cells))
 
 
 if __name__ == "__main__":
