@@ -3,6 +3,7 @@ on a number).
 
     .venv/bin/python benches/core_ab.py job MANIFEST [MANIFEST ...] --builds BASE.so CANDIDATE.so [--pairs 4]
     .venv/bin/python benches/core_ab.py solves --builds BASE.so CANDIDATE.so [--pairs 3]
+    .venv/bin/python benches/core_ab.py paired --builds BASE.so CANDIDATE.so [--pairs 15]
 
 Make each build with ``maturin develop --release`` and copy ``python/roadtex/_core.abi3.so`` away
 (the solver's constants are compiled in, so a Python-level switch cannot compare them). Every run is
@@ -15,6 +16,13 @@ model-grid solve of 0.5 m segments as the job makes it (four moduli chained, the
 as the start, tol 1e-3) for cement concrete, dense and porous asphalt at 0.5 mm (k = 5) and 1 mm
 (k = 8), and cold self-affine profiles of 2^12 and 2^14 points at tol 1e-8; printed: ms per batch
 and mean iterations. The CPU clock of this machine steps by about 2 ms, so each batch is tens of ms.
+``paired``: both builds loaded in this one process (each as its own module), the same batches
+called alternately, build after build, ``--pairs`` times: one thread, four moduli chained, 0.5 m
+segments of the four synthetic pavements at 0.5 mm (k = 4) and 1 mm (k = 6) from the data grid's
+answer at tol 1e-3, and on the data grid at tol 1e-6; printed: the least time, the mean iterations,
+the median of the per-pair time ratios (candidate / base: the machine's drift falls on both
+alike, so this resolves a few per cent where whole processes move by a tenth) and the largest
+pressure difference between the builds (of P).
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 JOB = r"""
@@ -94,14 +103,17 @@ def run(code: str, *args: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=("job", "solves"))
+    parser.add_argument("what", choices=("job", "solves", "paired"))
     parser.add_argument("manifests", nargs="*")
     parser.add_argument("--builds", nargs=2, required=True, type=Path, metavar=("BASE", "CANDIDATE"))
     parser.add_argument("--pairs", type=int, default=None)
     args = parser.parse_args()
     if args.what == "job" and not args.manifests:
         parser.error("job needs at least one manifest")
-    pairs = args.pairs or (4 if args.what == "job" else 3)
+    pairs = args.pairs or {"job": 4, "solves": 3, "paired": 15}[args.what]
+    if args.what == "paired":
+        paired(args.builds, pairs)
+        return
     target = installed_core()
     work = Path(tempfile.mkdtemp(prefix="core-ab-"))
     original = work / "installed.so"
@@ -138,6 +150,49 @@ def report(manifest: str | None, results: dict[str, list[dict]]) -> None:
             times = [r[case][0] for r in runs]
             cells.append(f"{statistics.median(times):9.1f} ms ({min(times):.1f}) {runs[-1][case][1]:5.1f} it")
         print(f"{case:36s}" + "".join(f"{c:>30s}" for c in cells))
+
+
+def load_build(path: Path, tag: str):
+    """The extension module in `path`, loaded as its own module (a package name of its own, the
+    same init symbol): two builds side by side in one process."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(f"{tag}._core", path)
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"{path}: not an extension module")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def paired(builds: list[Path], pairs: int) -> None:
+    import numpy as np
+
+    from roadtex import synthetic_pavement
+    from roadtex.models.grid import refine_periodic
+    cores = {"base": load_build(builds[0], "base"), "candidate": load_build(builds[1], "candidate")}
+    moduli = np.array([1e6, 2e6, 5e6, 1e7])
+    cases = []
+    for kind in ("cement_concrete", "dense_asphalt", "porous_asphalt", "surface_dressing"):
+        for dx, k in ((5e-4, 4), (1e-3, 6)):
+            segments = synthetic_pavement(kind, 4.0, dx, seed=3).segments(0.5).heights
+            fine = np.ascontiguousarray([refine_periodic(segment, k) for segment in segments])
+            cases.append((f"{kind} {dx * 1e3:g} mm k={k} 1e-3", fine, dx / k, 1e-3, k))
+        data = np.ascontiguousarray(synthetic_pavement(kind, 4.0, 1e-3, seed=3).segments(0.5).heights)
+        cases.append((f"{kind} 1 mm data grid 1e-6", data, 1e-3, 1e-6, None))
+    print(f"{'case':40s}{'base':>26s}{'candidate':>26s}{'ratio':>8s}{'max|dp|/P':>11s}")
+    for name, segments, dx, tol, k in cases:
+        times: dict[str, list[float]] = {role: [] for role in cores}
+        last: dict[str, tuple] = {}
+        for pair in range(pairs):
+            for role in ("base", "candidate") if pair % 2 == 0 else ("candidate", "base"):
+                started = time.perf_counter()
+                last[role] = cores[role].solve_many(segments, dx, moduli, 0.5, 2e5, True, "element", "cg", tol, 2000, 1,
+                                                    True, k, None)
+                times[role].append(time.perf_counter() - started)
+        ratio = statistics.median(c / b for b, c in zip(times["base"], times["candidate"]))
+        dp = float(np.abs(last["candidate"][0] - last["base"][0]).max()) / 2e5
+        cells = "".join(f"{1e3 * min(times[r]):12.1f} ms {np.mean(last[r][2]):6.2f} it" for r in cores)
+        print(f"{name:40s}{cells}{ratio:8.3f}{dp:11.1e}", flush=True)
 
 
 if __name__ == "__main__":

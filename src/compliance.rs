@@ -11,6 +11,13 @@ pub trait Compliance: Sync {
     /// Whether [`Compliance::displacement_low`] is a low-precision product (not the double one):
     /// only then do loose tolerances steer with it (`crate::solver::cg`).
     const LOW_PRECISION_DISPLACEMENT: bool = false;
+    /// Whether solves at tolerances below the solver's low-precision bound still steer in low
+    /// precision where it only costs iterations (every preconditioner application, the rough
+    /// sweeps' products): the areal operator's do (its transforms are most of a solve; 1 to 3
+    /// iterations more at most); the line operator's do not, so that its tight solves (the pilots'
+    /// references) are those of double precision: in single precision a stiff rubber's two contact
+    /// points stopped at the tolerance, 4e-8 P off the dense solve at tol 1e-12, against 2e-11.
+    const STEERS_LOW_AT_TIGHT_TOL: bool = false;
     fn len(&self) -> usize;
     fn is_empty(&self) -> bool {
         self.len() == 0
@@ -58,6 +65,8 @@ pub struct PeriodicCompliance {
     n: usize,
     /// Size N, or the larger 5-smooth size that embeds the circular product.
     circulant: Circulant,
+    /// The same products in single precision ([`Compliance::precondition_low`]).
+    low: Circulant<f32>,
     spectrum: Vec<f64>,
     /// What `circulant` multiplies by for C and for the preconditioner: the N/2 + 1 eigenvalues,
     /// or the embedded kernels' spectra.
@@ -77,6 +86,7 @@ impl PeriodicCompliance {
         let mut this = Self {
             n,
             circulant: Circulant::new(size),
+            low: Circulant::new(size),
             kernel_multiplier: Vec::new(),
             preconditioner_multiplier: Vec::new(),
             spectrum,
@@ -116,27 +126,49 @@ impl PeriodicCompliance {
     }
 }
 
+/// Scratch of one thread for [`PeriodicCompliance`]: double- and single-precision products.
+pub struct PeriodicScratch {
+    full: CirculantScratch,
+    low: CirculantScratch<f32>,
+}
+
+impl PeriodicScratch {
+    /// Single-precision FFT pairs applied so far (included in [`Compliance::fft_pairs`]).
+    pub fn low_pairs(&self) -> u64 {
+        self.low.pairs()
+    }
+}
+
 impl Compliance for PeriodicCompliance {
-    type Scratch = CirculantScratch;
+    type Scratch = PeriodicScratch;
+    const LOW_PRECISION_DISPLACEMENT: bool = true;
 
     fn len(&self) -> usize {
         self.n
     }
 
-    fn scratch(&self) -> CirculantScratch {
-        self.circulant.scratch()
+    fn scratch(&self) -> PeriodicScratch {
+        PeriodicScratch { full: self.circulant.scratch(), low: self.low.scratch() }
     }
 
-    fn fft_pairs(scratch: &CirculantScratch) -> u64 {
-        scratch.pairs()
+    fn fft_pairs(scratch: &PeriodicScratch) -> u64 {
+        scratch.full.pairs() + scratch.low.pairs()
     }
 
-    fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut CirculantScratch) {
-        self.circulant.apply(&self.kernel_multiplier, pressure, out, scratch);
+    fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut PeriodicScratch) {
+        self.circulant.apply(&self.kernel_multiplier, pressure, out, &mut scratch.full);
     }
 
-    fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut CirculantScratch) {
-        self.circulant.apply(&self.preconditioner_multiplier, gap, out, scratch);
+    fn precondition(&self, gap: &[f64], out: &mut [f64], scratch: &mut PeriodicScratch) {
+        self.circulant.apply(&self.preconditioner_multiplier, gap, out, &mut scratch.full);
+    }
+
+    fn precondition_low(&self, gap: &[f64], out: &mut [f64], scratch: &mut PeriodicScratch) {
+        self.low.apply(&self.preconditioner_multiplier, gap, out, &mut scratch.low);
+    }
+
+    fn displacement_low(&self, pressure: &[f64], out: &mut [f64], scratch: &mut PeriodicScratch) {
+        self.low.apply(&self.kernel_multiplier, pressure, out, &mut scratch.low);
     }
 
     fn dense_entry(&self, i: usize, j: usize) -> f64 {
@@ -170,7 +202,7 @@ pub struct FiniteCompliance {
 
 pub struct FiniteScratch {
     embedded: CirculantScratch,
-    periodic: CirculantScratch,
+    periodic: PeriodicScratch,
 }
 
 impl FiniteCompliance {
@@ -199,7 +231,7 @@ impl Compliance for FiniteCompliance {
     }
 
     fn fft_pairs(scratch: &FiniteScratch) -> u64 {
-        scratch.embedded.pairs() + scratch.periodic.pairs()
+        scratch.embedded.pairs() + PeriodicCompliance::fft_pairs(&scratch.periodic)
     }
 
     fn displacement(&self, pressure: &[f64], out: &mut [f64], scratch: &mut FiniteScratch) {

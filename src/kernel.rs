@@ -19,7 +19,7 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use realfft::num_complex::Complex;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use realfft::{ComplexToReal, FftNum, RealFftPlanner, RealToComplex};
 
 use crate::special::{alternating_inverse_squares, clausen2};
 
@@ -164,35 +164,102 @@ fn largest_prime_factor(mut n: usize) -> usize {
     }
 }
 
-/// A real circulant operator applied by real FFTs, with plans built once and shared by threads.
-/// Sizes need not be powers of two.
+/// The precision a circulant's transforms run in: `f64`, or `f32` for the contact solver's
+/// low-precision products (`crate::compliance::Compliance::precondition_low`, about 1e-7 relative
+/// rounding against 1e-16): input, output and multipliers stay `f64`, converted as the transform's
+/// buffer is filled and read.
+pub trait FftReal: FftNum + Default + Into<f64> {
+    fn of(x: f64) -> Self;
+    /// `real` = `input`, then zeros.
+    fn load(real: &mut [Self], input: &[f64]);
+    /// `out` = the inverse transform of `spectrum`, through `real` when the precisions differ.
+    fn inverse_into(
+        plan: &dyn ComplexToReal<Self>,
+        spectrum: &mut [Complex<Self>],
+        out: &mut [f64],
+        real: &mut [Self],
+        scratch: &mut [Complex<Self>],
+    );
+}
+
+impl FftReal for f64 {
+    fn of(x: f64) -> Self {
+        x
+    }
+    fn load(real: &mut [f64], input: &[f64]) {
+        real[..input.len()].copy_from_slice(input);
+        real[input.len()..].fill(0.0);
+    }
+    fn inverse_into(
+        plan: &dyn ComplexToReal<f64>,
+        spectrum: &mut [Complex<f64>],
+        out: &mut [f64],
+        real: &mut [f64],
+        scratch: &mut [Complex<f64>],
+    ) {
+        if out.len() == real.len() {
+            plan.process_with_scratch(spectrum, out, scratch).expect("buffer sizes are fixed by the plan");
+        } else {
+            plan.process_with_scratch(spectrum, real, scratch).expect("buffer sizes are fixed by the plan");
+            let kept = out.len();
+            out.copy_from_slice(&real[..kept]);
+        }
+    }
+}
+
+impl FftReal for f32 {
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+    fn load(real: &mut [f32], input: &[f64]) {
+        for (r, &x) in real.iter_mut().zip(input) {
+            *r = x as f32;
+        }
+        real[input.len()..].fill(0.0);
+    }
+    fn inverse_into(
+        plan: &dyn ComplexToReal<f32>,
+        spectrum: &mut [Complex<f32>],
+        out: &mut [f64],
+        real: &mut [f32],
+        scratch: &mut [Complex<f32>],
+    ) {
+        plan.process_with_scratch(spectrum, real, scratch).expect("buffer sizes are fixed by the plan");
+        for (o, &r) in out.iter_mut().zip(real.iter()) {
+            *o = r.into();
+        }
+    }
+}
+
+/// A real circulant operator applied by real FFTs in precision `T`, with plans built once and
+/// shared by threads. Sizes need not be powers of two.
 #[derive(Clone)]
-pub struct Circulant {
+pub struct Circulant<T: FftReal = f64> {
     n: usize,
-    forward: Arc<dyn RealToComplex<f64>>,
-    inverse: Arc<dyn ComplexToReal<f64>>,
+    forward: Arc<dyn RealToComplex<T>>,
+    inverse: Arc<dyn ComplexToReal<T>>,
 }
 
 /// Scratch buffers of one thread for [`Circulant`] products.
-pub struct CirculantScratch {
-    real: Vec<f64>,
-    spectrum: Vec<Complex<f64>>,
-    forward_scratch: Vec<Complex<f64>>,
-    inverse_scratch: Vec<Complex<f64>>,
+pub struct CirculantScratch<T = f64> {
+    real: Vec<T>,
+    spectrum: Vec<Complex<T>>,
+    forward_scratch: Vec<Complex<T>>,
+    inverse_scratch: Vec<Complex<T>>,
     /// Products (FFT pairs) applied with this scratch: a cost counter for benchmarks.
     pairs: u64,
 }
 
-impl CirculantScratch {
+impl<T> CirculantScratch<T> {
     /// How many circulant products (one forward plus one inverse real FFT each) used this scratch.
     pub fn pairs(&self) -> u64 {
         self.pairs
     }
 }
 
-impl Circulant {
+impl<T: FftReal> Circulant<T> {
     pub fn new(n: usize) -> Self {
-        let mut planner = RealFftPlanner::<f64>::new();
+        let mut planner = RealFftPlanner::<T>::new();
         Self { n, forward: planner.plan_fft_forward(n), inverse: planner.plan_fft_inverse(n) }
     }
 
@@ -204,9 +271,9 @@ impl Circulant {
         self.n == 0
     }
 
-    pub fn scratch(&self) -> CirculantScratch {
+    pub fn scratch(&self) -> CirculantScratch<T> {
         CirculantScratch {
-            real: vec![0.0; self.n],
+            real: vec![T::default(); self.n],
             spectrum: self.forward.make_output_vec(),
             forward_scratch: self.forward.make_scratch_vec(),
             inverse_scratch: self.inverse.make_scratch_vec(),
@@ -218,37 +285,28 @@ impl Circulant {
     ///
     /// `input` may be shorter than N (the rest is taken as zeros) and `out` may be shorter (the
     /// first out.len() values of the product): a linear convolution embedded in a larger circulant.
-    pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], scratch: &mut CirculantScratch) {
+    pub fn apply(&self, multiplier: &[f64], input: &[f64], out: &mut [f64], scratch: &mut CirculantScratch<T>) {
         debug_assert!(input.len() <= self.n && out.len() <= self.n);
         debug_assert_eq!(multiplier.len(), self.n / 2 + 1);
         scratch.pairs += 1;
-        scratch.real[..input.len()].copy_from_slice(input);
-        scratch.real[input.len()..].fill(0.0);
+        T::load(&mut scratch.real, input);
         self.forward
             .process_with_scratch(&mut scratch.real, &mut scratch.spectrum, &mut scratch.forward_scratch)
             .expect("buffer sizes are fixed by the plan");
         let norm = 1.0 / self.n as f64;
         for (c, &m) in scratch.spectrum.iter_mut().zip(multiplier) {
-            *c *= m * norm;
+            *c = *c * T::of(m * norm);
         }
         // The inverse real transform requires exactly real end bins; rounding must not trip it.
-        scratch.spectrum[0].im = 0.0;
+        scratch.spectrum[0].im = T::default();
         if self.n % 2 == 0 {
-            scratch.spectrum[self.n / 2].im = 0.0;
+            scratch.spectrum[self.n / 2].im = T::default();
         }
-        if out.len() == self.n {
-            self.inverse
-                .process_with_scratch(&mut scratch.spectrum, out, &mut scratch.inverse_scratch)
-                .expect("buffer sizes are fixed by the plan");
-        } else {
-            self.inverse
-                .process_with_scratch(&mut scratch.spectrum, &mut scratch.real, &mut scratch.inverse_scratch)
-                .expect("buffer sizes are fixed by the plan");
-            let kept = out.len();
-            out.copy_from_slice(&scratch.real[..kept]);
-        }
+        T::inverse_into(&*self.inverse, &mut scratch.spectrum, out, &mut scratch.real, &mut scratch.inverse_scratch);
     }
+}
 
+impl Circulant<f64> {
     /// The real-space first column of the circulant with eigenvalues `multiplier` (N/2+1 values).
     pub fn column_of(&self, multiplier: &[f64]) -> Vec<f64> {
         let mut unit = vec![0.0; self.n];
@@ -389,6 +447,25 @@ mod tests {
             let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let err = out.iter().zip(&expected).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / scale;
             assert!(err < 1e-13, "toeplitz n={n}: {err:e}");
+        }
+    }
+
+    /// The single-precision circulant (the solver's low-precision products) gives the double one's
+    /// product to single precision, on a direct and an embedded (prime N) size, and really runs in
+    /// single precision (not as close as double).
+    #[test]
+    fn single_precision_products_match_double_ones_to_single_precision() {
+        for (n, size) in [(1_000usize, 1_000usize), (1_009, circular_product_len(1_009))] {
+            let column = periodic_coefficients(n, 1e-3);
+            let (full, low) = (Circulant::<f64>::new(size), Circulant::<f32>::new(size));
+            let multiplier = if size == n { full.spectrum_of(&column) } else { full.embedded_spectrum(&column) };
+            let input: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1013) as f64 / 1013.0).collect();
+            let (mut exact, mut rounded) = (vec![0.0; n], vec![0.0; n]);
+            full.apply(&multiplier, &input, &mut exact, &mut full.scratch());
+            low.apply(&multiplier, &input, &mut rounded, &mut low.scratch());
+            let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let err = exact.iter().zip(&rounded).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / scale;
+            assert!(err < 1e-5 && err > 1e-12, "n={n}: {err:e}");
         }
     }
 

@@ -79,3 +79,48 @@ fn preconditioned_iterations_grow_slowly_with_n() {
     assert!(growth <= 0.5, "iterations {counts:?} grow as N^{growth:.2}");
     assert!(counts[2] <= 100.0, "iterations {counts:?}");
 }
+
+/// Loose tolerances (the bulk job's model grids) steer the line solver in single precision; tight
+/// ones (the pilots' references) not at all; either way the answer meets tol on a double-precision
+/// product computed here, independently of the solver's own check.
+#[test]
+fn single_precision_steers_loose_line_solves_and_never_tight_ones() {
+    use roadtex::compliance::{Compliance, PeriodicCompliance};
+    use roadtex::kernel::KernelKind;
+    use roadtex::solver::{ContactSolver, Workspace};
+    let (n, length) = (4000usize, 0.5);
+    let dx = length / n as f64;
+    let heights = self_affine(n, length, 0.8, 0.2, 0.25, 7);
+    for tol in [1e-3, 1e-4, 1e-8] {
+        let solver = ContactSolver::new(n, dx, SolverOptions { tol, ..Default::default() }).unwrap();
+        let mut workspace = Workspace::default();
+        let solution = solver.solve_in(&mut workspace, &heights, RUBBER(), 2e5).unwrap();
+        assert!(solution.converged, "tol {tol}: residual {}", solution.residual);
+        let (low, all) = (workspace.low_precision_pairs(), workspace.fft_pairs());
+        if tol >= 1e-5 {
+            assert!(low > 0 && low < all, "tol {tol}: {low} single-precision pairs of {all}");
+        } else {
+            assert_eq!(low, 0, "tol {tol}: {low} single-precision pairs of {all}");
+        }
+        // The gap from a fresh double-precision product of the returned pressure.
+        let op = PeriodicCompliance::new(n, dx, KernelKind::Element);
+        let e_star = RUBBER().plane_strain_modulus();
+        let strain: Vec<f64> = solution.pressure.iter().map(|p| p / e_star).collect();
+        let mut u = vec![0.0; n];
+        op.displacement(&strain, &mut u, &mut op.scratch());
+        let contact: Vec<usize> = (0..n).filter(|&i| solution.pressure[i] > 0.0).collect();
+        let approach = contact.iter().map(|&i| heights[i] - u[i]).sum::<f64>() / contact.len() as f64;
+        let range = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max) - heights.iter().copied().fold(f64::INFINITY, f64::min);
+        let worst = (0..n)
+            .map(|i| {
+                let gap = u[i] + approach - heights[i];
+                if solution.pressure[i] > 0.0 {
+                    gap.abs()
+                } else {
+                    (-gap).max(0.0)
+                }
+            })
+            .fold(0.0, f64::max);
+        assert!(worst / range <= tol, "tol {tol}: recomputed residual {:e} (solver: {:e})", worst / range, solution.residual);
+    }
+}

@@ -38,7 +38,7 @@ mod precision;
 mod tests;
 
 use covering::{add_prolonged_covering, deflate_covering};
-use precision::{steering_product, LOW_PRECISION_TOL};
+use precision::{steering_precondition, steering_product, LOW_PRECISION_TOL};
 
 /// Active-set sweeps before the bound-constrained CG takes over.
 const MAX_SWEEPS: usize = 40;
@@ -527,21 +527,21 @@ impl<Op: Compliance> Context<'_, Op> {
         let reduction =
             if self.pair_sums.is_some() && self.z.len() <= SMALL_PROFILE { SMALL_PROFILE_ROUGH_REDUCTION } else { ROUGH_REDUCTION };
         let stop = if how.rough { how.abs_tol.max(reduction * start_norm) } else { how.abs_tol };
-        let low = how.rough || self.low_products;
+        let low = (how.rough && Op::STEERS_LOW_AT_TIGHT_TOL) || self.low_products;
 
         let mut rho_before = 0.0;
         let mut iterations = 0;
         // max|r|, kept up to date by the update pass (no separate pass per iteration).
         let mut residual_norm = start_norm;
         while residual_norm > stop && iterations < how.max_iterations {
-            // y = M r on A, zero-sum (M in low precision where the operator has it).
-            op.precondition_low(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            // y = M r on A, zero-sum (M in low precision where the operator has it and `low` asks).
+            steering_precondition(op, low, &w.residual, &mut w.preconditioned, &mut w.scratch);
             // P^T y = y - Z E^-1 Z^T C y.
             if let Some(coarse) = covering {
-                deflate_covering(op, w, coarse, count);
+                deflate_covering(op, w, coarse, count, low);
             } else if let Some(coarse) = &coarse {
                 mask_and_project(&mut w.preconditioned, &w.mask, count);
-                op.displacement(&w.preconditioned, &mut w.applied, &mut w.scratch);
+                steering_product(op, low, &w.preconditioned, &mut w.applied, &mut w.scratch);
                 // restrict reads C y on the coarse space's runs only (all inside A) and takes its
                 // sum over the whole set A as given: sum over the mask, not over all N points.
                 let total = masked_sum(&w.applied, &w.mask);

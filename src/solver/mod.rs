@@ -19,9 +19,8 @@ pub mod nested;
 mod reduce;
 mod wide;
 
-use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance};
+use crate::compliance::{Compliance, FiniteCompliance, FiniteScratch, PeriodicCompliance, PeriodicScratch};
 use crate::error::{invalid, Result};
-use crate::kernel::CirculantScratch;
 use crate::kernel::KernelKind;
 use deflation::PairSums;
 use far_field::Singular;
@@ -271,6 +270,16 @@ impl Workspace {
         }
     }
 
+    /// Of [`Workspace::fft_pairs`], those applied in single precision: the steering products of
+    /// tolerances at or above `cg`'s low-precision bound (1e-5) with the periodic model; none
+    /// below it, nor with the finite model.
+    pub fn low_precision_pairs(&self) -> u64 {
+        match &self.inner {
+            WorkspaceInner::Periodic(w) => w.scratch().low_pairs(),
+            WorkspaceInner::Empty | WorkspaceInner::Finite(_) => 0,
+        }
+    }
+
     /// [`Workspace::fft_pairs`] plus those of the coarser levels of nested solves, each counted as
     /// its share of a pair of this size (N_level / N): what the benchmarks compare with the floor.
     pub fn fft_pairs_equivalent(&self) -> f64 {
@@ -295,7 +304,7 @@ impl Workspace {
 enum WorkspaceInner {
     #[default]
     Empty,
-    Periodic(cg::Work<CirculantScratch>),
+    Periodic(cg::Work<PeriodicScratch>),
     Finite(cg::Work<FiniteScratch>),
 }
 

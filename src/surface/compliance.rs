@@ -70,6 +70,7 @@ impl SurfacePeriodicScratch {
 impl Compliance for SurfacePeriodic {
     type Scratch = SurfacePeriodicScratch;
     const LOW_PRECISION_DISPLACEMENT: bool = true;
+    const STEERS_LOW_AT_TIGHT_TOL: bool = true;
 
     fn len(&self) -> usize {
         self.grid.len()
@@ -170,6 +171,7 @@ impl SurfaceFinite {
 
 impl Compliance for SurfaceFinite {
     type Scratch = SurfaceFiniteScratch;
+    const STEERS_LOW_AT_TIGHT_TOL: bool = true;
 
     fn fft_pairs(scratch: &SurfaceFiniteScratch) -> u64 {
         scratch.embedded.pairs() + SurfacePeriodic::fft_pairs(&scratch.periodic)

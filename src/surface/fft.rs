@@ -20,7 +20,9 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
-use rustfft::{Fft, FftNum, FftPlanner};
+use rustfft::{Fft, FftPlanner};
+
+use crate::kernel::FftReal;
 
 /// Grids of at least this many points transform their rows and columns in parallel (rayon):
 /// each row pair and column block is transformed by the same sequential code whichever thread
@@ -30,8 +32,7 @@ const PARALLEL_MIN: usize = 1 << 15;
 /// The precision the transforms run in: `f64`, or `f32` for the contact solver's low-precision
 /// products (`crate::compliance::Compliance::precondition_low`): input, output and multipliers
 /// stay `f64`, converted as the rows are packed and unpacked.
-pub trait Real: FftNum + Default + Into<f64> {
-    fn of(x: f64) -> Self;
+pub trait Real: FftReal {
     /// Runs `task` with this thread's task buffers of this precision.
     #[doc(hidden)]
     fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R;
@@ -43,18 +44,12 @@ thread_local! {
 }
 
 impl Real for f64 {
-    fn of(x: f64) -> Self {
-        x
-    }
     fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R {
         BUFFERS_F64.with(|cell| task(&mut cell.borrow_mut()))
     }
 }
 
 impl Real for f32 {
-    fn of(x: f64) -> Self {
-        x as f32
-    }
     fn with_thread_buffers<R>(task: impl FnOnce(&mut TaskBuffers<Self>) -> R) -> R {
         BUFFERS_F32.with(|cell| task(&mut cell.borrow_mut()))
     }

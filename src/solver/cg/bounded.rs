@@ -1,7 +1,7 @@
 //! The bound-constrained CG of the cold start's warm-up and of the safety net (split from
 //! [`super`] by concern: the sweeps' deflated PCG stays there).
 
-use super::precision::steering_product;
+use super::precision::{steering_precondition, steering_product};
 use super::{Context, MAX_COLUMN_UPDATES};
 use crate::compliance::Compliance;
 use crate::solver::reduce::{
@@ -44,7 +44,7 @@ impl<Op: Compliance> Context<'_, Op> {
             }
             let free_count = free_set(&mut free, &mut w.residual, &p, &gap);
             project_zero_sum(&mut w.residual, &free, free_count);
-            op.precondition_low(&w.residual, &mut w.preconditioned, &mut w.scratch);
+            steering_precondition(op, low_products, &w.residual, &mut w.preconditioned, &mut w.scratch);
             mask_and_project(&mut w.preconditioned, &free, free_count);
             let rho = dot(&w.residual, &w.preconditioned);
             if !(rho > 0.0) {
