@@ -1,7 +1,8 @@
 //! The surface solver: CG against the dense direct solve, the flat and stiff limits, and
 //! determinism of the parallel batch.
 
-use roadtex::compliance::Compliance;
+mod common;
+
 use roadtex::surface::synthetic::self_affine_surface;
 use roadtex::surface::{solve_surface, solve_surfaces, solve_surfaces_from, Grid, SurfaceSolver, SurfaceWorkspace};
 use roadtex::{KernelKind, Material, Method, SolverOptions};
@@ -103,20 +104,9 @@ fn workspace_counts_the_transform_pairs_of_its_solves() {
     assert_eq!(workspace.fft_pairs(), 2 * after_one);
 }
 
-/// The residual of `pressure` (Pa) on heights `z` (m) recomputed here in double precision, as the
-/// solver defines it: the gap with the rigid approach that makes it zero-mean on the contact set,
-/// worst |gap| on the set and worst penetration off it, over the peak-to-valley height.
+/// [`common::recomputed_residual`] with the solver's periodic operator.
 fn recomputed_residual(solver: &SurfaceSolver, z: &[f64], pressure: &[f64], e_star: f64) -> f64 {
-    let op = solver.periodic_operator().unwrap();
-    let p: Vec<f64> = pressure.iter().map(|&x| x / e_star).collect();
-    let mut u = vec![0.0; p.len()];
-    op.displacement(&p, &mut u, &mut op.scratch());
-    let contact: Vec<usize> = (0..p.len()).filter(|&i| p[i] > 0.0).collect();
-    let approach = -contact.iter().map(|&i| u[i] - z[i]).sum::<f64>() / contact.len() as f64;
-    let gap = |i: usize| u[i] - z[i] + approach;
-    let worst = (0..p.len()).map(|i| if p[i] > 0.0 { gap(i).abs() } else { (-gap(i)).max(0.0) }).fold(0.0, f64::max);
-    let (lo, hi) = z.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-    worst / (hi - lo)
+    common::recomputed_residual(solver.periodic_operator().unwrap(), z, pressure, e_star)
 }
 
 #[test]
