@@ -131,9 +131,10 @@ impl PairSums {
     }
 
     /// Row `a` of the group matrix, entries b in `range`, into `g` (row-major, groups x groups)
-    /// and its mirror; `out` is scratch. Groups far from a (see [`super::far_field`]) take their
-    /// entries from the far field; the others, in maximal ranges, are summed exactly.
-    fn group_row(&self, groups: &Groups<'_>, a: usize, range: std::ops::Range<usize>, g: &mut [f64], out: &mut Vec<f64>) {
+    /// and, when `mirror`, its mirror (column a); `out` is scratch. Groups far from a (see
+    /// [`super::far_field`]) take their entries from the far field; the others, in maximal ranges,
+    /// are summed exactly.
+    fn group_row(&self, groups: &Groups<'_>, a: usize, range: std::ops::Range<usize>, g: &mut [f64], out: &mut Vec<f64>, mirror: bool) {
         let Groups { runs, mirrored, bounds, far } = *groups;
         let groups = bounds.len() - 1;
         let tile = &runs[bounds[a]..bounds[a + 1]];
@@ -143,7 +144,9 @@ impl PairSums {
             if let Some(f) = far.filter(|_| is_far(b)) {
                 let value = f.far_sum(a, b);
                 g[a * groups + b] = value;
-                g[b * groups + a] = value;
+                if mirror {
+                    g[b * groups + a] = value;
+                }
                 b += 1;
                 continue;
             }
@@ -153,7 +156,9 @@ impl PairSums {
                 // The tile's runs added in order (as `Iterator::sum` does).
                 let value: f64 = sums.iter().sum();
                 g[a * groups + c] = value;
-                g[c * groups + a] = value;
+                if mirror {
+                    g[c * groups + a] = value;
+                }
             }
             b = end;
         }
@@ -179,9 +184,12 @@ impl PairSums {
             let members = bounds[ga]..bounds[ga + 1];
             g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
             if ga + 1 < groups {
-                self.group_row(&all, ga, ga + 1..groups, &mut g, &mut out);
+                self.group_row(&all, ga, ga + 1..groups, &mut g, &mut out, false);
             }
         }
+        // The lower triangle from the upper, by blocks (a column written entry by entry as the
+        // rows are summed strides the whole matrix once per row).
+        mirror_upper(&mut g, groups);
         g
     }
 
@@ -260,6 +268,51 @@ fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usi
 }
 
 const LANES: usize = 4;
+
+/// g[j][i] = g[i][j] for j > i (row-major, n x n), in square blocks that stay in cache.
+fn mirror_upper(g: &mut [f64], n: usize) {
+    const BLOCK: usize = 32;
+    for i0 in (0..n).step_by(BLOCK) {
+        for j0 in (i0..n).step_by(BLOCK) {
+            for i in i0..(i0 + BLOCK).min(n) {
+                for j in j0.max(i + 1)..(j0 + BLOCK).min(n) {
+                    g[j * n + i] = g[i * n + j];
+                }
+            }
+        }
+    }
+}
+
+wide_fn! {
+/// The row sums of the symmetric `g` (groups x groups), each added in order from -0.0 (as
+/// `Iterator::sum`). Taken down the columns (the same entries in the same order, g being exactly
+/// symmetric as [`PairSums::group_matrix`] and [`GroupCache`] write it): independent chains that
+/// vectorise, where one row's sum is a chain of dependent adds.
+fn row_sums(g: &[f64], groups: usize) -> Vec<f64> {
+    let mut sums = vec![-0.0; groups];
+    for g_row in g.chunks_exact(groups) {
+        for (s, &v) in sums.iter_mut().zip(g_row) {
+            *s += v;
+        }
+    }
+    sums
+}
+}
+
+wide_fn! {
+/// E = G - row w^T - w row^T + total w w^T on the first `columns` groups, row-major, every entry
+/// written once (no zeroed matrix first).
+fn coarse_matrix(g: &[f64], groups: usize, columns: usize, row: &[f64], weights: &[f64], total: f64) -> Vec<f64> {
+    let mut e = Vec::with_capacity(columns * columns);
+    let (row, weights) = (&row[..columns], &weights[..columns]);
+    for a in 0..columns {
+        let (ra, wa) = (row[a], weights[a]);
+        let g_row = &g[a * groups..a * groups + columns];
+        e.extend(g_row.iter().zip(row).zip(weights).map(|((&g, &rb), &wb)| g - ra * wb - wa * rb + total * wa * wb));
+    }
+    e
+}
+}
 
 /// (H at end + c - H at start + c) - (H at end + d - H at start + d), with `end`, `start` the
 /// second prefix sums from a run's end and start on, and c, d a mirrored run (N - its ends).
@@ -366,7 +419,7 @@ impl CoarseSpace {
         // E = G - row w^T - w row^T + total w w^T, G = Z^T C Z, row = Z^T C 1_A, total = 1_A^T C 1_A.
         let (row, total): (Vec<f64>, f64) = if complete {
             // 1_A is the sum of the group indicators, so Z^T C 1_A are the row sums of G.
-            let row: Vec<f64> = (0..groups).map(|a| g_matrix[a * groups..(a + 1) * groups].iter().sum()).collect();
+            let row = row_sums(&g_matrix, groups);
             let total = row.iter().sum();
             (row, total)
         } else {
@@ -375,17 +428,8 @@ impl CoarseSpace {
             let total = u.iter().zip(mask).filter(|(_, &m)| m).map(|(u, _)| u).sum();
             (row, total)
         };
-        // E in place of G (symmetric, so row- and column-major alike), then its Cholesky factor.
-        let mut e = vec![0.0; columns * columns];
-        for a in 0..columns {
-            let (ra, wa) = (row[a], weights[a]);
-            let g_row = &g_matrix[a * groups..a * groups + columns];
-            let e_row = &mut e[a * columns..(a + 1) * columns];
-            for b in 0..columns {
-                e_row[b] = g_row[b] - ra * weights[b] - wa * row[b] + total * wa * weights[b];
-            }
-        }
-        let factor = cholesky(e, columns);
+        // E (symmetric, so row- and column-major alike), then its Cholesky factor.
+        let factor = cholesky(coarse_matrix(&g_matrix, groups, columns, &row, &weights, total), columns);
         if grouped {
             let mut starts: Vec<usize> = bounds[..groups].iter().map(|&j| runs[j].0).collect();
             starts[0] = 0;
@@ -505,6 +549,30 @@ mod tests {
                         members(a).iter().flat_map(|&i| members(b).into_iter().map(move |l| kernel(i as isize - l as isize))).sum();
                     assert!((g[a * groups + b] - direct).abs() < 1e-9 * direct.abs().max(1.0), "{bounds:?} {a} {b}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_matrix_is_symmetric_and_its_row_sums_are_each_rows_own_sum_bitwise() {
+        // Sizes across the mirror's blocks (32): the lower triangle is the upper's, entry for
+        // entry, and the column-wise sums are the rows' own sums (Iterator::sum) to the bit.
+        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()).sqrt() + 0.3 * (0.7 * d as f64).cos();
+        for count in [2usize, 31, 32, 33, 70] {
+            let n = 4 * count + 3;
+            let sums = PairSums::new(n, kernel, None);
+            let runs: Vec<(usize, usize)> = (0..count).map(|j| (4 * j + 1, 4 * j + 2 + j % 3)).collect();
+            let bounds: Vec<usize> = (0..=count).collect();
+            let g = sums.group_matrix(&runs, &bounds, None);
+            for a in 0..count {
+                for b in 0..count {
+                    assert_eq!(g[a * count + b].to_bits(), g[b * count + a].to_bits(), "{count}: ({a}, {b})");
+                }
+            }
+            let rows = row_sums(&g, count);
+            for (a, row) in rows.iter().enumerate() {
+                let own: f64 = g[a * count..(a + 1) * count].iter().sum();
+                assert_eq!(row.to_bits(), own.to_bits(), "{count}: row {a}");
             }
         }
     }

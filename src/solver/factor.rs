@@ -27,10 +27,17 @@ pub(crate) fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
         let mut scratch = MemBuffer::new(cholesky_in_place_scratch::<f64>(dim, Par::Seq, Default::default()));
         let view = MatMut::from_column_major_slice_mut(&mut e, dim, dim);
         cholesky_in_place(view, LltRegularization::default(), Par::Seq, MemStack::new(&mut scratch), Default::default()).ok()?;
-        // L(a, b), a > b, sits at b * dim + a (column-major): move it to a * dim + b (row-major).
-        for a in 0..dim {
-            for b in 0..a {
-                e.swap(a * dim + b, b * dim + a);
+        // L(a, b), a > b, sits at b * dim + a (column-major): move it to a * dim + b (row-major),
+        // in square blocks that stay in cache (entry by entry, one of each pair strides the
+        // whole matrix).
+        const BLOCK: usize = 32;
+        for a0 in (0..dim).step_by(BLOCK) {
+            for b0 in (0..=a0).step_by(BLOCK) {
+                for a in a0..(a0 + BLOCK).min(dim) {
+                    for b in b0..(b0 + BLOCK).min(a) {
+                        e.swap(a * dim + b, b * dim + a);
+                    }
+                }
             }
         }
         return Some(e);

@@ -63,12 +63,12 @@ impl GroupCache {
             while b < a {
                 let end = (b..a).find(|&e| changed[e]).unwrap_or(a);
                 if end > b {
-                    pair_sums.group_row(&all, a, b..end, &mut g, &mut out);
+                    pair_sums.group_row(&all, a, b..end, &mut g, &mut out, true);
                 }
                 b = end + 1;
             }
             if a + 1 < groups {
-                pair_sums.group_row(&all, a, a + 1..groups, &mut g, &mut out);
+                pair_sums.group_row(&all, a, a + 1..groups, &mut g, &mut out, true);
             }
         }
         g
