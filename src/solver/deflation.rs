@@ -15,10 +15,11 @@
 
 use super::factor::{cholesky, cholesky_solve};
 use super::far_field::{Expansion, FarField, Lattice, Singular, NODES};
-use super::wide::wide_fn;
 
 mod group_cache;
+mod sums;
 pub(crate) use group_cache::GroupCache;
+use sums::{coarse_matrix, mirror_upper, row_sums, single_run_rows, tile_sums};
 
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
@@ -180,11 +181,20 @@ impl PairSums {
         let mut out = Vec::new();
         let mirrored = self.mirrored(runs);
         let all = Groups { runs, mirrored: &mirrored, bounds, far };
-        for ga in 0..groups {
-            let members = bounds[ga]..bounds[ga + 1];
-            g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
-            if ga + 1 < groups {
-                self.group_row(&all, ga, ga + 1..groups, &mut g, &mut out, false);
+        if far.is_none() && groups == runs.len() {
+            // One run a group (every road segment's space below `coarse_dim`'s cap): each entry is
+            // one block, summed in one pass per row (the value `group_row` gives, bit for bit).
+            single_run_rows(&self.second, self.n, runs, &mirrored, &mut g);
+            for a in 0..groups {
+                g[a * groups + a] = self.diagonal_entry(&runs[a..a + 1], &mirrored[a..a + 1]);
+            }
+        } else {
+            for ga in 0..groups {
+                let members = bounds[ga]..bounds[ga + 1];
+                g[ga * groups + ga] = self.diagonal_entry(&runs[members.clone()], &mirrored[members]);
+                if ga + 1 < groups {
+                    self.group_row(&all, ga, ga + 1..groups, &mut g, &mut out, false);
+                }
             }
         }
         // The lower triangle from the upper, by blocks (a column written entry by entry as the
@@ -208,121 +218,6 @@ pub(crate) struct Groups<'a> {
     pub mirrored: &'a [(usize, usize)],
     pub bounds: &'a [usize],
     pub far: Option<&'a FarField>,
-}
-
-wide_fn! {
-/// out[g * tile.len() + j] = the block sums of `tile[j]` against the runs of group g of `others`
-/// (runs bounds[g]..bounds[g + 1], given as (N - start, N - end)), added in order from -0.0 (as
-/// `Iterator::sum`); `h` holds the second prefix sums of a kernel of size `n`.
-///
-/// The hot loop of the coarse space. The whole tile (a group's runs, neighbours on the profile)
-/// meets each run of `others` at once: the entries of `h` it reads for one run lie in a window of
-/// about the tile's span, which the next run shifts by one run only. So `h` (16 MiB at N = 2^20)
-/// streams through the cache once per tile instead of once per run, and the tile's sums are
-/// independent chains, four at a time in registers. The block of the runs [a, b) and [c, d) is
-/// H(b - c + 1) - H(a - c + 1) - H(b - d + 1) + H(a - d + 1), and H(k) sits at k + N - 1: at
-/// b + (N - c) and so on, one load each from the tile run's own base (no index arithmetic).
-fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[(usize, usize)], bounds: &[usize], out: &mut [f64]) {
-    let t = tile.len();
-    assert!(h.len() > 2 * n && out.len() == t * (bounds.len() - 1) && bounds[bounds.len() - 1] <= others.len());
-    assert!(tile.iter().all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
-    // SAFETY (every `block` below): its slices begin at a tile run's start or end, at most N into
-    // `h` (more than 2N entries: at least N + 1 left, asserted above), and c, d <= N, as
-    // `others` holds PairSums::mirrored of runs inside [0, N] (every caller asserts it through
-    // PairSums::check_runs).
-    debug_assert!(others.iter().all(|&(c, d)| c >= d && c <= n), "runs must lie in [0, N]");
-    let groups = bounds.len() - 1;
-    if t == 1 && bounds[groups] - bounds[0] == groups {
-        // One run against single runs (a coarse space of ungrouped runs, all N = 1,000 segments):
-        // one block each, in one pass.
-        let (end, start) = (&h[tile[0].1..], &h[tile[0].0..]);
-        for (o, &(c, d)) in out.iter_mut().zip(&others[bounds[0]..bounds[groups]]) {
-            *o = -0.0 + unsafe { block(end, start, c, d) };
-        }
-        return;
-    }
-    let whole = t / LANES * LANES;
-    for (group, sums) in bounds.windows(2).zip(out.chunks_exact_mut(t)) {
-        let group = &others[group[0]..group[1]];
-        for (o, lanes) in sums[..whole].chunks_exact_mut(LANES).zip(tile.chunks_exact(LANES)) {
-            let mut acc = [-0.0; LANES];
-            let ends = [&h[lanes[0].1..], &h[lanes[1].1..], &h[lanes[2].1..], &h[lanes[3].1..]];
-            let starts = [&h[lanes[0].0..], &h[lanes[1].0..], &h[lanes[2].0..], &h[lanes[3].0..]];
-            for &(c, d) in group {
-                for k in 0..LANES {
-                    acc[k] += unsafe { block(ends[k], starts[k], c, d) };
-                }
-            }
-            o.copy_from_slice(&acc);
-        }
-        for (o, &(a, b)) in sums[whole..].iter_mut().zip(&tile[whole..]) {
-            let (end, start) = (&h[b..], &h[a..]);
-            let mut acc = -0.0;
-            for &(c, d) in group {
-                acc += unsafe { block(end, start, c, d) };
-            }
-            *o = acc;
-        }
-    }
-}
-}
-
-const LANES: usize = 4;
-
-/// g[j][i] = g[i][j] for j > i (row-major, n x n), in square blocks that stay in cache.
-fn mirror_upper(g: &mut [f64], n: usize) {
-    const BLOCK: usize = 32;
-    for i0 in (0..n).step_by(BLOCK) {
-        for j0 in (i0..n).step_by(BLOCK) {
-            for i in i0..(i0 + BLOCK).min(n) {
-                for j in j0.max(i + 1)..(j0 + BLOCK).min(n) {
-                    g[j * n + i] = g[i * n + j];
-                }
-            }
-        }
-    }
-}
-
-wide_fn! {
-/// The row sums of the symmetric `g` (groups x groups), each added in order from -0.0 (as
-/// `Iterator::sum`). Taken down the columns (the same entries in the same order, g being exactly
-/// symmetric as [`PairSums::group_matrix`] and [`GroupCache`] write it): independent chains that
-/// vectorise, where one row's sum is a chain of dependent adds.
-fn row_sums(g: &[f64], groups: usize) -> Vec<f64> {
-    let mut sums = vec![-0.0; groups];
-    for g_row in g.chunks_exact(groups) {
-        for (s, &v) in sums.iter_mut().zip(g_row) {
-            *s += v;
-        }
-    }
-    sums
-}
-}
-
-wide_fn! {
-/// E = G - row w^T - w row^T + total w w^T on the first `columns` groups, row-major, every entry
-/// written once (no zeroed matrix first).
-fn coarse_matrix(g: &[f64], groups: usize, columns: usize, row: &[f64], weights: &[f64], total: f64) -> Vec<f64> {
-    let mut e = Vec::with_capacity(columns * columns);
-    let (row, weights) = (&row[..columns], &weights[..columns]);
-    for a in 0..columns {
-        let (ra, wa) = (row[a], weights[a]);
-        let g_row = &g[a * groups..a * groups + columns];
-        e.extend(g_row.iter().zip(row).zip(weights).map(|((&g, &rb), &wb)| g - ra * wb - wa * rb + total * wa * wb));
-    }
-    e
-}
-}
-
-/// (H at end + c - H at start + c) - (H at end + d - H at start + d), with `end`, `start` the
-/// second prefix sums from a run's end and start on, and c, d a mirrored run (N - its ends).
-/// Unchecked because this is the coarse space's hot loop.
-///
-/// # Safety
-/// c and d must be less than both slices' lengths.
-#[inline(always)]
-unsafe fn block(end: &[f64], start: &[f64], c: usize, d: usize) -> f64 {
-    (end.get_unchecked(c) - start.get_unchecked(c)) - (end.get_unchecked(d) - start.get_unchecked(d))
 }
 
 /// Maximal runs [start, end) of `true` in `mask` (no wrap-around: an island that crosses the
@@ -573,6 +468,64 @@ mod tests {
             for (a, row) in rows.iter().enumerate() {
                 let own: f64 = g[a * count..(a + 1) * count].iter().sum();
                 assert_eq!(row.to_bits(), own.to_bits(), "{count}: row {a}");
+            }
+        }
+    }
+
+    #[test]
+    fn single_run_matrices_are_the_tile_sums_bit_for_bit() {
+        let n = 500;
+        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()).sqrt() - 1e-5 * (d * d) as f64;
+        let sums = PairSums::new(n, kernel, None);
+        let runs: Vec<(usize, usize)> = (0..90).map(|j| (5 * j + 2, 5 * j + 3 + j % 3)).chain([(460, 500)]).collect();
+        let count = runs.len();
+        let g = sums.group_matrix(&runs, &(0..=count).collect::<Vec<_>>(), None);
+        let mirrored = sums.mirrored(&runs);
+        for a in 0..count {
+            let diagonal = sums.diagonal_entry(&runs[a..a + 1], &mirrored[a..a + 1]);
+            assert_eq!(g[a * count + a].to_bits(), diagonal.to_bits(), "({a}, {a})");
+            for b in a + 1..count {
+                let summed: f64 = [sums.sum_over(runs[a], &mirrored[b..b + 1])].iter().sum();
+                assert_eq!(g[a * count + b].to_bits(), summed.to_bits(), "({a}, {b})");
+                assert_eq!(g[b * count + a].to_bits(), summed.to_bits(), "({b}, {a})");
+            }
+        }
+    }
+
+    #[test]
+    fn grouped_matrices_add_their_blocks_in_order_bit_for_bit() {
+        // Groups of one and two runs (the branch-free path) and with a group of three (the
+        // general one): entry (a, b) is, from -0.0, the sum over a's runs in order of each one's
+        // sum, from -0.0, of its blocks against b's runs in order.
+        let n = 400;
+        let kernel = |d: isize| 1.0 / (1.0 + (d as f64).abs()).sqrt() + 0.2 * (0.3 * d as f64).sin();
+        let sums = PairSums::new(n, kernel, None);
+        let runs: Vec<(usize, usize)> = (0..60).map(|j| (6 * j + 1, 6 * j + 3 + j % 4)).collect();
+        let h = |k: usize| sums.second[k];
+        let block = |(s, e): (usize, usize), (c, d): (usize, usize)| (h(e + n - c) - h(s + n - c)) - (h(e + n - d) - h(s + n - d));
+        let sizes_small: Vec<usize> = (0..60)
+            .scan(0, |at, j| {
+                (*at < 60).then(|| {
+                    *at = (*at + 1 + (j * 7 % 3 == 0) as usize).min(60);
+                    *at
+                })
+            })
+            .collect();
+        let mut sizes_mixed = sizes_small.clone();
+        sizes_mixed.remove(3);
+        for ends in [sizes_small, sizes_mixed] {
+            let bounds: Vec<usize> = std::iter::once(0).chain(ends).collect();
+            let groups = bounds.len() - 1;
+            let g = sums.group_matrix(&runs, &bounds, None);
+            for a in 0..groups {
+                for b in a + 1..groups {
+                    let expected = runs[bounds[a]..bounds[a + 1]]
+                        .iter()
+                        .map(|&j| runs[bounds[b]..bounds[b + 1]].iter().fold(-0.0, |acc, &l| acc + block(j, l)))
+                        .fold(-0.0, |acc, v| acc + v);
+                    assert_eq!(g[a * groups + b].to_bits(), expected.to_bits(), "{groups} groups: ({a}, {b})");
+                    assert_eq!(g[b * groups + a].to_bits(), expected.to_bits(), "{groups} groups: ({b}, {a})");
+                }
             }
         }
     }
