@@ -19,7 +19,7 @@ use super::far_field::{Expansion, FarField, Lattice, Singular, NODES};
 mod group_cache;
 mod sums;
 pub(crate) use group_cache::GroupCache;
-use sums::{coarse_matrix, mirror_upper, row_sums, single_run_rows, tile_sums};
+use sums::{coarse_matrix, mirror_upper, row_sums, tile_sums};
 
 /// Second prefix sums of a kernel c(d), d in (-N, N), for sums of c(i - l) over interval pairs.
 pub(crate) struct PairSums {
@@ -182,11 +182,14 @@ impl PairSums {
         let mirrored = self.mirrored(runs);
         let all = Groups { runs, mirrored: &mirrored, bounds, far };
         if far.is_none() && groups == runs.len() {
-            // One run a group (every road segment's space below `coarse_dim`'s cap): each entry is
-            // one block, summed in one pass per row (the value `group_row` gives, bit for bit).
-            single_run_rows(&self.second, self.n, runs, &mirrored, &mut g);
+            // One run a group (every road segment's space below `coarse_dim`'s cap): each row's
+            // entries are one block each, summed straight into the row in one pass of `tile_sums`
+            // (the values `group_row` gives, -0.0 + x being x, without its per-row bookkeeping).
+            let single: Vec<usize> = (0..=groups).collect();
             for a in 0..groups {
                 g[a * groups + a] = self.diagonal_entry(&runs[a..a + 1], &mirrored[a..a + 1]);
+                let row = &mut g[a * groups + a + 1..(a + 1) * groups];
+                tile_sums(&self.second, self.n, &runs[a..a + 1], &mirrored, &single[a + 1..], row);
             }
         } else {
             for ga in 0..groups {

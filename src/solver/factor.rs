@@ -28,21 +28,26 @@ pub(crate) fn cholesky(mut e: Vec<f64>, dim: usize) -> Option<Vec<f64>> {
         let view = MatMut::from_column_major_slice_mut(&mut e, dim, dim);
         cholesky_in_place(view, LltRegularization::default(), Par::Seq, MemStack::new(&mut scratch), Default::default()).ok()?;
         // L(a, b), a > b, sits at b * dim + a (column-major): move it to a * dim + b (row-major),
-        // in square blocks that stay in cache (entry by entry, one of each pair strides the
-        // whole matrix).
-        const BLOCK: usize = 32;
-        for a0 in (0..dim).step_by(BLOCK) {
-            for b0 in (0..=a0).step_by(BLOCK) {
-                for a in a0..(a0 + BLOCK).min(dim) {
-                    for b in b0..(b0 + BLOCK).min(a) {
-                        e.swap(a * dim + b, b * dim + a);
-                    }
-                }
-            }
-        }
+        // by cache blocks (entry by entry, one of each pair strides the whole matrix).
+        pairs_above_diagonal(dim, |b, a| e.swap(a * dim + b, b * dim + a));
         return Some(e);
     }
     small_cholesky(e, dim)
+}
+
+/// Calls `f(i, j)` for every pair i < j < n, in square blocks of 32 x 32 (so that a transposition
+/// or a mirror through it touches a few cache lines at a time, not a column of the whole matrix).
+pub(crate) fn pairs_above_diagonal(n: usize, mut f: impl FnMut(usize, usize)) {
+    const BLOCK: usize = 32;
+    for i0 in (0..n).step_by(BLOCK) {
+        for j0 in (i0..n).step_by(BLOCK) {
+            for i in i0..(i0 + BLOCK).min(n) {
+                for j in j0.max(i + 1)..(j0 + BLOCK).min(n) {
+                    f(i, j);
+                }
+            }
+        }
+    }
 }
 
 wide_fn! {

@@ -1,6 +1,7 @@
 //! The coarse space's hot loops: the island matrix's block sums (from the kernel's second prefix
 //! sums), its mirror and row sums, and the coarse matrix E formed from it.
 
+use crate::solver::factor::pairs_above_diagonal;
 use crate::solver::wide::wide_fn;
 
 wide_fn! {
@@ -81,39 +82,9 @@ pub(super) fn tile_sums(h: &[f64], n: usize, tile: &[(usize, usize)], others: &[
 
 const LANES: usize = 4;
 
-wide_fn! {
-/// The strict upper triangle of the group matrix of single runs (row-major, runs x runs): entry
-/// (a, b) the block of run a against run b (`mirrored` their [`super::PairSums::mirrored`] form), as
-/// [`tile_sums`] gives it for a tile of one run (-0.0 + x is x, so the same bits).
-pub(super) fn single_run_rows(h: &[f64], n: usize, runs: &[(usize, usize)], mirrored: &[(usize, usize)], g: &mut [f64]) {
-    let count = runs.len();
-    assert!(h.len() > 2 * n && g.len() == count * count && mirrored.len() == count);
-    assert!(runs.iter().all(|&(a, b)| a <= b && b <= n), "runs must lie in [0, N]");
-    // SAFETY (every `block` below): the slices begin at a run's start or end, at most N into `h`
-    // (more than 2N entries), and the mirrored runs' c, d are at most N (runs inside [0, N]).
-    assert!(mirrored.iter().all(|&(c, d)| c >= d && c <= n), "runs must lie in [0, N]");
-    for (a, &(start, end)) in runs.iter().enumerate() {
-        let (end, start) = (&h[end..], &h[start..]);
-        let row = &mut g[a * count + a + 1..(a + 1) * count];
-        for (o, &(c, d)) in row.iter_mut().zip(&mirrored[a + 1..]) {
-            *o = unsafe { block(end, start, c, d) };
-        }
-    }
-}
-}
-
 /// `g[j][i] = g[i][j]` for j > i (row-major, n x n), in square blocks that stay in cache.
 pub(super) fn mirror_upper(g: &mut [f64], n: usize) {
-    const BLOCK: usize = 32;
-    for i0 in (0..n).step_by(BLOCK) {
-        for j0 in (i0..n).step_by(BLOCK) {
-            for i in i0..(i0 + BLOCK).min(n) {
-                for j in j0.max(i + 1)..(j0 + BLOCK).min(n) {
-                    g[j * n + i] = g[i * n + j];
-                }
-            }
-        }
-    }
+    pairs_above_diagonal(n, |i, j| g[j * n + i] = g[i * n + j]);
 }
 
 wide_fn! {
