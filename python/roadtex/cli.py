@@ -70,6 +70,7 @@ def process_command(args: argparse.Namespace) -> int:
     from roadtex.archive import ArchiveWriteError, ManifestError, ProcessingOptions, process
     from roadtex.errors import ImplausibleParameterWarning, JobInterrupted, MissingDependencyError
     from roadtex.profiles.plausibility import PLAUSIBLE_MAX_DX
+    from roadtex.profiles.readers.text import bare_interval_unit
 
     if args.quiet:
         # roadtex's one line per run, on a handler of its own: a root handler would also print the
@@ -82,11 +83,15 @@ def process_command(args: argparse.Namespace) -> int:
             log.addHandler(handler)
     if not args.allow_implausible:
         refused = refused_rubber("process", args.moduli, args.pressure, " --allow-implausible solves it anyway.")
+        # --input-dx's metres are stated by --distance-unit m (a 1 cm survey, processed with a
+        # CoarseSamplingWarning per file); --dx is the job's own resampling, always judged
+        input_dx_stated = bare_interval_unit(args.distance_unit) is not None
         coarse = [(flag, value) for flag, value in (("--dx", args.dx), ("--input-dx", args.input_dx))
-                  if value is not None and value > PLAUSIBLE_MAX_DX]
+                  if value is not None and value > PLAUSIBLE_MAX_DX and not (flag == "--input-dx" and input_dx_stated)]
         for flag, value in coarse:
+            stating = " --distance-unit m states that it is right (a coarse survey);" if flag == "--input-dx" else ""
             print(f"roadtex process: error: {flag} {value:g} m is coarser than any texture profile's sampling (at "
-                  f"most {PLAUSIBLE_MAX_DX:g} m). {flag} is in metres (e.g. {flag} 0.5e-3 for 0.5 mm); "
+                  f"most {PLAUSIBLE_MAX_DX:g} m). {flag} is in metres (e.g. {flag} 0.5e-3 for 0.5 mm);{stating} "
                   "--allow-implausible solves it anyway.", file=sys.stderr)
         if refused or coarse:
             return 2

@@ -230,4 +230,59 @@ def test_readers_say_where_the_unit_comes_from_and_trust_no_stored_claim(tmp_pat
         assert DISTANCE_UNIT_STATED not in roadtex.read_profile(tmp_path / "line.npy").metadata
     (tmp_path / "line.npy.json").write_text(json.dumps({"distance_unit": "m"}))
     with pytest.warns(CoarseSamplingWarning):
-        assert roadtex.read_profile(tmp_path / "line.npy").metadata[DISTANCE_UNIT_STATED] == "m (given for the file)"
+        assert roadtex.read_profile(tmp_path / "line.npy").metadata[DISTANCE_UNIT_STATED] == "m (the file's sidecar)"
+
+
+def test_a_heights_only_surface_at_1_cm_is_processed_when_its_metres_are_stated(tmp_path: Path) -> None:
+    """A 2-D .npy has no distances: its dx is a bare number in metres. Its manifest row stating
+    distance_unit m makes that certain, so a 1 cm surface is processed with a CoarseSamplingWarning
+    (before: refused as a unit mistake whatever the manifest said); a unit other than metres does
+    not state a bare dx's, so the row is still refused, naming the way to state it."""
+    surface = sett_surface(LENGTH, WIDTH, DX, seed=3)
+    np.save(tmp_path / "setts.npy", surface.heights)
+    row = {"path": [str(tmp_path / "setts.npy")], "format": ["surface"], "dx": [DX], "dy": [DX]}
+    with pytest.warns(CoarseSamplingWarning, match=r"setts\.npy: sampled every 10 mm.*unit is m \(given for the file\)"):
+        summary = process(pl.DataFrame({**row, "distance_unit": ["m"]}), tmp_path / "stated", OPTIONS, quiet=True)
+    assert (summary.processed, summary.failed) == (1, 0)
+    bands = pl.read_parquet(tmp_path / "stated" / "bands.parquet")
+    assert not bands.filter(pl.col("centre_wavelength") < 0.025 * (1 - 1e-9))["reported"].any()
+    assert bands.filter(pl.col("centre_wavelength").is_between(0.025, 0.2))["reported"].all()
+    assert process(pl.DataFrame({**row, "distance_unit": ["mm"]}), tmp_path / "mm", OPTIONS, quiet=True).failed == 1
+    message = pl.read_parquet(tmp_path / "mm" / "errors.parquet")["message"][0]
+    assert "setts.npy" in message and "distance_unit m for the file" in message
+    # read_surface says the same: stated by the argument or by the sidecar, assumed otherwise
+    with pytest.warns(CoarseSamplingWarning):
+        read = read_surface(tmp_path / "setts.npy", dx=DX, distance_unit="m")
+    assert read.metadata[DISTANCE_UNIT_STATED] == "m (given for the file)"
+    (tmp_path / "setts.npy.json").write_text(json.dumps({"dx": DX, "distance_unit": "m"}))
+    with pytest.warns(CoarseSamplingWarning):
+        assert read_surface(tmp_path / "setts.npy").metadata[DISTANCE_UNIT_STATED] == "m (the file's sidecar)"
+    (tmp_path / "setts.npy.json").write_text(json.dumps({"dx": DX}))
+    with pytest.warns(ImplausibleTextureWarning, match=r"setts\.npy.*were they given in millimetres\?"):
+        assert DISTANCE_UNIT_STATED not in read_surface(tmp_path / "setts.npy").metadata
+
+
+def test_heights_only_profiles_take_a_given_metre_as_their_intervals_unit(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """1-D .npy and one-column CSV: dx with distance_unit m is certain (a CoarseSamplingWarning, not a
+    refusal), on the command line (--input-dx with --distance-unit m) as in the library."""
+    heights = write_line_files(tmp_path / "lines")
+    np.save(tmp_path / "lines" / "heights.npy", heights)
+    (tmp_path / "lines" / "heights.csv").write_text("".join(f"{z * 1e3:.4f}\n" for z in heights))
+    for name, units in (("heights.npy", {}), ("heights.csv", {"height_unit": "mm"})):
+        with pytest.warns(CoarseSamplingWarning, match=rf"{name}: sampled every 10 mm.*m \(given for the file\)"):
+            read = roadtex.read_profile(tmp_path / "lines" / name, dx=DX, distance_unit="m", **units)
+        assert read.metadata[DISTANCE_UNIT_STATED] == "m (given for the file)"
+        with pytest.warns(ImplausibleTextureWarning, match=rf"{name}: a sampling interval of 0\.01 m"):
+            assert DISTANCE_UNIT_STATED not in roadtex.read_profile(tmp_path / "lines" / name, dx=DX,
+                                                                    distance_unit="mm", **units).metadata
+    manifest = tmp_path / "manifest.csv"
+    pl.DataFrame({"path": [str(tmp_path / "lines" / "heights.npy")]}).write_csv(manifest)
+    common = ["process", str(manifest), "--segment-length", str(SEGMENT), "--moduli", "2", "--input-dx", "0.01",
+              "--quiet"]
+    assert main([*common, "--out", str(tmp_path / "refused")]) == 2
+    assert "--distance-unit m states that it is right" in capsys.readouterr().err
+    assert main([*common, "--out", str(tmp_path / "out"), "--distance-unit", "m"]) == 0
+    said = capsys.readouterr().err
+    assert "heights.npy: sampled every 10 mm" in said and "Processed as read" not in said
+    assert pl.read_parquet(tmp_path / "out" / "runs.parquet")["file_dx"].to_list() == [pytest.approx(DX)]

@@ -235,7 +235,8 @@ def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict
     if reason is not None and not options.allow_implausible:
         if given_dx is not None and dx > PLAUSIBLE_MAX_DX:
             what = (f"The interval dx = {given_dx:g} given for it (manifest column dx, --input-dx) must be in "
-                    "metres (0.5 mm is 0.5e-3).")
+                    "metres (0.5 mm is 0.5e-3); if it is, distance_unit m for the file (manifest column, "
+                    "--distance-unit) states so.")
         else:
             what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
                     "--height-unit) where its header states none; a unit its header states wrongly must be "

@@ -11,7 +11,7 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
-from roadtex.profiles.readers.text import ReadResult
+from roadtex.profiles.readers.text import ReadResult, bare_interval_unit
 from roadtex.profiles.units import unit_factor
 
 
@@ -140,16 +140,17 @@ def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> di
 
 def read_npy(path: Path, name: str, options: dict) -> ReadResult:
     array = load_numeric_npy(path, name)
+    unit_source = "given for the file" if options.get("distance_unit") is not None else "the file's sidecar"
     metadata, history, options = read_sidecar(path, options, ("dx", "distance_unit", "height_unit"))
     array = array.astype(np.float64)
     height_factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
-    if array.ndim == 1:   # heights only: the interval is a bare dx (m assumed)
-        set_distance_unit(metadata, None)
+    if array.ndim == 1:   # heights only: the interval is a bare dx (m), certain when m is given for the file
+        set_distance_unit(metadata, bare_interval_unit(options.get("distance_unit"), unit_source))
         return grid_positions(array.size, options, name), array * height_factor, metadata, history, options.get("dx")
     if array.ndim == 2 and 2 in array.shape:
         pairs = array if array.shape[1] == 2 else array.T
         distance_factor = unit_factor(options.get("distance_unit") or "m", "the .npy distances")
         given = options.get("distance_unit")   # else metres assumed: not certain
-        set_distance_unit(metadata, f"{given} (given for the file)" if given else None)
+        set_distance_unit(metadata, f"{given} ({unit_source})" if given else None)
         return pairs[:, 0] * distance_factor, pairs[:, 1] * height_factor, metadata, history, options.get("dx")
     raise ProfileFormatError(f"{name}: .npy must be 1-D heights or (N, 2) distance/height pairs, got shape {array.shape}")

@@ -182,15 +182,27 @@ def column_unit(names: list[str], index: int, given: str | None, what: str, *, s
 def stated_unit(names: list[str], index: int | None, given: str | None, default: str | None = None) -> str | None:
     """Where the unit of column ``index`` comes from, when it is certain: the header's (which a
     given unit never overrides), else the one ``given`` for the file, else a ``default`` the format
-    defines (a string naming it, e.g. "mm (the CAPTIF format)"); None without a column (a bare dx)."""
+    defines (a string naming it, e.g. "mm (the CAPTIF format)"); without a column (a bare dx),
+    :func:`bare_interval_unit`."""
     if index is None:
-        return None
+        return bare_interval_unit(given)
     stated = split_column_name(names[index])[1]
     if stated is not None:
         return f"{stated} (the file's header)"
     if given is not None:
         return f"{given} (given for the file)"
     return default
+
+
+def bare_interval_unit(given: str | None, source: str = "given for the file") -> str | None:
+    """Where the unit of a heights-only file's interval comes from, when it is certain: a bare dx
+    is in metres by definition (read_profile's and read_surface's ``dx``, the manifest column dx,
+    ``--input-dx``, a sidecar's dx), so a distance unit ``given`` for the file (from ``source``) as
+    metres states it ("m (given for the file)"); any other unit, or none, leaves it assumed (None):
+    a dx of 0.01 with distance_unit mm is still 1 cm, and judged as an assumed one is."""
+    if given is None or unit_factor(given, "the distances") != 1.0:
+        return None
+    return f"{given} ({source})"
 
 
 def nominal_dx(positions: np.ndarray) -> float:
