@@ -226,8 +226,7 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
         raise ProfileFormatError(f"{name}: shape {array.shape}: an x, y, z point list? A surface .npy is a grid "
                                  "heights[iy, ix] (rows across the road, columns along it); write the points as a "
                                  "long table (CSV or Parquet with x, y, z columns)")
-    unit_source = "given for the file" if options.get("distance_unit") is not None else "the file's sidecar"
-    metadata, history, options = read_sidecar(path, options, ("dx", "dy", "height_unit", "distance_unit"))
+    metadata, history, options, sources = read_sidecar(path, options, ("dx", "dy", "height_unit", "distance_unit"))
     if options.get("dx") is None:
         raise InvalidInputError(f"a .npy surface needs dx (m, the spacing along the road; dy across defaults to dx): "
                                 f"give it as read_surface's dx, the bulk job's manifest columns dx and dy, or a "
@@ -236,7 +235,8 @@ def read_npy_surface(path: Path, name: str, options: dict) -> Surface:
     dy = positive(options["dy"], "dy") if options.get("dy") is not None else dx
     factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
     # dx is a bare number (m): certain when m is given for the file, else assumed
-    set_distance_unit(metadata, bare_interval_unit(options.get("distance_unit"), unit_source))
+    set_distance_unit(metadata, bare_interval_unit(options.get("distance_unit"),
+                                                  sources.get("distance_unit", "")))
     return finish(name, "npy", array.astype(np.float64) * factor, dx, dy, metadata, history)
 
 

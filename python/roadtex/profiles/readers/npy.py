@@ -72,12 +72,16 @@ def load_numeric_npy(path: Path, name: str) -> np.ndarray:
     return array
 
 
-def read_sidecar(path: Path, options: dict, keys: tuple[str, ...]) -> tuple[dict[str, object], list[str], dict]:
-    """(metadata, history, options) of a ``.npy``: its sidecar's metadata and history, and ``options``
-    with the sidecar's values filled in for ``keys`` the caller did not give."""
+def read_sidecar(path: Path, options: dict,
+                 keys: tuple[str, ...]) -> tuple[dict[str, object], list[str], dict, dict[str, str]]:
+    """(metadata, history, options, sources) of a ``.npy``: its sidecar's metadata and history,
+    ``options`` with the sidecar's values filled in for ``keys`` the caller did not give, and where
+    each of ``keys`` that has a value came from ("given for the file" or "the file's sidecar"), for
+    the labels that state a unit's provenance."""
     metadata: dict[str, object] = {"format": "npy"}
     history: list[str] = []
     options = dict(options)
+    sources = {key: "given for the file" for key in keys if options.get(key) is not None}
     sidecar = sidecar_path(path)
     if sidecar.exists():
         stored = load_sidecar(sidecar)
@@ -86,7 +90,9 @@ def read_sidecar(path: Path, options: dict, keys: tuple[str, ...]) -> tuple[dict
         for key in keys:
             if options.get(key) is None:
                 options[key] = stored.get(key)
-    return metadata, history, options
+                if options[key] is not None:
+                    sources[key] = "the file's sidecar"
+    return metadata, history, options, sources
 
 
 #: The largest sidecar read (bytes): spacings, units, metadata and a history are a few kB.
@@ -140,8 +146,8 @@ def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> di
 
 def read_npy(path: Path, name: str, options: dict) -> ReadResult:
     array = load_numeric_npy(path, name)
-    unit_source = "given for the file" if options.get("distance_unit") is not None else "the file's sidecar"
-    metadata, history, options = read_sidecar(path, options, ("dx", "distance_unit", "height_unit"))
+    metadata, history, options, sources = read_sidecar(path, options, ("dx", "distance_unit", "height_unit"))
+    unit_source = sources.get("distance_unit", "")
     array = array.astype(np.float64)
     height_factor = unit_factor(options.get("height_unit") or "m", "the .npy heights")
     if array.ndim == 1:   # heights only: the interval is a bare dx (m), certain when m is given for the file
