@@ -109,3 +109,30 @@ fn single_precision_steers_loose_line_solves_and_never_tight_ones() {
         assert!(residual <= tol, "tol {tol}: recomputed residual {residual:e} (solver: {:e})", solution.residual);
     }
 }
+
+/// A crowded line (more than 128 contact runs on at most 8,192 points, as cement concrete's model
+/// grids are) solved at the loose tolerances that give it a smaller coarse space than one vector a
+/// run (`cg::CROWDED_DIM`): the answer still meets tol on a product computed here.
+#[test]
+fn crowded_lines_meet_loose_tolerances_on_their_smaller_coarse_space() {
+    use roadtex::compliance::PeriodicCompliance;
+    use roadtex::kernel::KernelKind;
+    use roadtex::solver::{ContactSolver, Workspace};
+    let (n, length) = (4000usize, 0.5);
+    let dx = length / n as f64;
+    // 300 stones of 1.7 mm under a rough texture: one run of contact on nearly every stone.
+    let texture = self_affine(n, length, 0.8, 0.05, 0.25, 11);
+    let heights: Vec<f64> =
+        (0..n).map(|i| 1e-4 * (2.0 * std::f64::consts::PI * 300.0 * i as f64 / n as f64).cos() + 0.2 * texture[i]).collect();
+    for tol in [1e-3, 1e-4] {
+        let solver = ContactSolver::new(n, dx, SolverOptions { tol, ..Default::default() }).unwrap();
+        let solution = solver.solve_in(&mut Workspace::default(), &heights, RUBBER(), 2e5).unwrap();
+        assert!(solution.converged, "tol {tol}: residual {}", solution.residual);
+        let contact: Vec<bool> = solution.pressure.iter().map(|&p| p > 0.0).collect();
+        let runs = (0..n).filter(|&i| contact[i] && !contact[(i + n - 1) % n]).count();
+        assert!(runs > 128, "tol {tol}: {runs} runs of contact, not a crowded set");
+        let op = PeriodicCompliance::new(n, dx, KernelKind::Element);
+        let residual = common::recomputed_residual(&op, &heights, &solution.pressure, RUBBER().plane_strain_modulus());
+        assert!(residual <= tol, "tol {tol}: recomputed residual {residual:e} (solver: {:e})", solution.residual);
+    }
+}
