@@ -112,7 +112,7 @@ fn single_precision_steers_loose_line_solves_and_never_tight_ones() {
 
 /// A crowded line (more than 128 contact runs on at most 8,192 points, as cement concrete's model
 /// grids are) solved at the loose tolerances that give it a smaller coarse space than one vector a
-/// run (`cg::CROWDED_DIM`): the answer still meets tol on a product computed here.
+/// run (`cg::space_size::CROWDED_DIM`): the answer still meets tol on a product computed here.
 #[test]
 fn crowded_lines_meet_loose_tolerances_on_their_smaller_coarse_space() {
     use roadtex::compliance::PeriodicCompliance;
