@@ -33,3 +33,16 @@ def pchip_road(heights: np.ndarray, refine: int) -> np.ndarray:
 def job_road(heights: np.ndarray, refine: int) -> np.ndarray:
     """The job's default road (pchip) through periodic rows of readings, ``refine`` times finer."""
     return pchip_road(heights, refine)
+
+
+def road_at(heights: np.ndarray, points: int, interpolant: str = "pchip") -> np.ndarray:
+    """(rows, points): the road through periodic rows of N readings (``"pchip"`` or ``"linear"``)
+    sampled at ``points`` equal intervals per period (any count, not only a multiple of N)."""
+    rows = np.atleast_2d(heights)
+    n = rows.shape[-1]
+    where = np.arange(points) * n / points
+    if interpolant == "linear":
+        return np.array([np.interp(where, np.arange(n + 1), np.append(row, row[0])) for row in rows])
+    curve = PchipInterpolator(np.arange(-n, 2 * n, dtype=np.float64), np.concatenate([rows, rows, rows], axis=-1),
+                              axis=-1)
+    return curve(where)

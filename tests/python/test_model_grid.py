@@ -14,9 +14,9 @@ import polars as pl
 import pytest
 
 import roadtex
-from roads import job_road, linear_road, pchip_road
+from roads import job_road, linear_road, pchip_road, road_at
 from roadtex.archive import ProcessingOptions, process
-from roadtex.models.grid import coarse_points, refine_periodic
+from roadtex.models.grid import MAX_MODEL_POINTS, coarse_points, refine_periodic, resample_periodic
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.coverage import missing_shares, too_few_readings
 from roadtex.spectra.bands import REFERENCE_PRESSURE
@@ -51,6 +51,35 @@ def test_cubic_and_band_limited_roads() -> None:
         refine_periodic(sine, 0)
     with pytest.raises(roadtex.InvalidInputError):
         refine_periodic(sine, 2, "spline")  # type: ignore[arg-type]
+
+
+def test_a_road_on_a_grid_of_any_count_is_the_same_road() -> None:
+    # the error pilot's reference grids where N is not FFT-friendly: 13,500 k points for 13,337
+    heights = np.random.default_rng(5).normal(size=(3, 37)) * 1e-3
+    for points in (37, 40, 111, 129, 500):
+        for road in ("pchip", "linear"):
+            np.testing.assert_allclose(resample_periodic(heights, points, road), road_at(heights, points, road),
+                                       rtol=0, atol=1e-16)   # 1e-13 of the heights: rounding
+    for k in (2, 5):   # a multiple of N: refine_periodic's grid, every k-th point a reading
+        for road in ("pchip", "linear", "bandlimited"):
+            np.testing.assert_allclose(resample_periodic(heights, 37 * k, road), refine_periodic(heights, k, road),
+                                       rtol=0, atol=1e-15)
+    # a smooth road: a sine of 64 readings a period, on 97 points, within the interpolants' closed-form
+    # bounds (linear: h^2 / 8 max|z''|; the band-limited road is exact for a sine below Nyquist)
+    n, h = 64, 2 * np.pi / 64
+    sine = np.sin(np.arange(n) * h)[None, :]
+    exact = np.sin(np.arange(97) * 2 * np.pi / 97)
+    assert np.abs(resample_periodic(sine, 97, "linear")[0] - exact).max() <= h ** 2 / 8
+    assert np.abs(resample_periodic(sine, 97, "pchip")[0] - exact).max() <= h ** 2 / 8
+    np.testing.assert_allclose(resample_periodic(sine, 97, "bandlimited")[0], exact, atol=1e-12)
+    # the wrap: halfway between the last reading and the first, the linear road is their mean
+    ramp = np.arange(4, dtype=np.float64)[None, :]
+    assert resample_periodic(ramp, 8, "linear")[0, 7] == pytest.approx(1.5)
+    for bad in (0, MAX_MODEL_POINTS + 1):
+        with pytest.raises(roadtex.InvalidInputError):
+            resample_periodic(heights, bad)
+    with pytest.raises(roadtex.InvalidInputError, match="non-finite"):
+        resample_periodic(np.array([[0.0, np.nan, 1.0]]), 10)
 
 
 def levels(heights: np.ndarray, dx: float, tol: float) -> tuple[pl.DataFrame, np.ndarray]:

@@ -193,3 +193,36 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
     roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                            interpolants=False, tol_candidates=[1e-3])
     assert measured == []
+
+
+def test_a_reference_off_the_data_grid_where_its_points_are_not_fft_friendly(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 0.5 m segments of 1,009 readings (a prime, like CAPTIF's 13,337): the reference's rungs are
+    # the same road on 1,024 k points; its statements still cover the actual error against k = 32
+    # on the data's own grid, solved here independently
+    dx = SEGMENT / 1009
+    profile = roadtex.synthetic_pavement("dense_asphalt", 5.0, dx, seed=4)
+    grids: list[int] = []
+    solve = study.solve_levels
+
+    def counting(pilot, heights, dx, tol, refine=1, interpolant=None, **more):
+        grids.append(more.get("points") or heights.shape[1] * refine)
+        return solve(pilot, heights, dx, tol, refine, interpolant, **more)
+
+    monkeypatch.setattr(study, "solve_levels", counting)
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                    interpolants=False)
+    rungs = [1024 * 2 ** i for i in range(6) if 2 ** i <= choice.reference_refine]
+    assert choice.reference_refine >= 2 and set(rungs) <= set(grids)
+    reference = choice.study.filter(pl.col("reference"))
+    assert reference["points"].unique().to_list() == [1024]
+    assert reference["model_dx"].unique().to_list() == [pytest.approx(SEGMENT / (1024 * choice.reference_refine))]
+    # the chosen setting is one a job can run: the data (or the data resampled) refined k times
+    assert choice.points != 1024 and choice.within_budget
+    data = profile.conditioned(spike_alpha=None).segments(SEGMENT)
+    assert data.heights.shape[1] == 1009
+    truth = levels(job_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+    run = profile.conditioned(spike_alpha=None, dx=choice.dx).segments(SEGMENT)
+    model = levels(job_road(run.heights, choice.refine), run.dx / choice.refine, choice.tol)
+    for band in choice.budget_bands:
+        actual = float(np.max(np.abs(model[band] - truth[band])))
+        assert choice.band_error_db[band] >= actual, (band, choice.band_error_db[band], actual)

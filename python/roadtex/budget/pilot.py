@@ -26,7 +26,6 @@ from roadtex.budget.study import (
     DEFAULT_PILOT_SEGMENTS,
     DEFAULT_TOLERANCES,
     PILOT_SPREAD_FACTOR,
-    REFERENCE_TOL,
     REFINE_LADDER,
     SPREAD_MAX_POINTS,
     Pilot,
@@ -35,8 +34,9 @@ from roadtex.budget.study import (
     candidate_rows,
     check_candidates,
     default_settings,
-    pilot_segment_levels,
+    reference_rows,
     run_extreme,
+    rung_levels,
 )
 from roadtex.models.grid import DEFAULT_INTERPOLANT, check_refine
 from roadtex.profiles.profile import Profile
@@ -118,7 +118,7 @@ def tolerance_rungs(pilot: Pilot) -> list[int]:
     """The rungs of the reference's sequence the tolerance effect may be measured on (model grids of
     at most :data:`~roadtex.budget.study.SPREAD_MAX_POINTS` a segment; the coarsest when none is)."""
     rungs = sorted(pilot.sequence)
-    fitting = [k for k in rungs if k * pilot.points <= SPREAD_MAX_POINTS]
+    fitting = [k for k in rungs if pilot.rung_points(k) <= SPREAD_MAX_POINTS]
     return fitting or rungs[:1]
 
 
@@ -136,7 +136,7 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     """
     if k is None:
         k = pilot.refine if pilot.refine in tolerance_rungs(pilot) else max(tolerance_rungs(pilot))
-    levels, ok, _, _ = pilot_segment_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made
+    levels, ok, _, _ = rung_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made and on its grid
     budget = pilot.bands["in_budget"].to_numpy() & ok
     gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
     return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.dx / k
@@ -282,11 +282,13 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
 
     coarsest_passing(len(settings), lambda index: evaluate(settings[index]), solved)
     if not any(r["reference"] for r in rows):  # no solve: the pilot's own reference levels
-        rows.extend(candidate_rows(pilot, pilot.dx, [REFERENCE_TOL], pilot.refine))
+        rows.extend(reference_rows(pilot))
     forced = forced_dx_f is not None or forced_tol_f is not None or forced_refine_k is not None
-    # only the candidate settings may be chosen: the reference is there for comparison only
-    allowed = {(dxs_used(rows, dx), k) for dx, k in settings}
-    summary = {key: v for key, v in setting_summary(rows).items()
+    # only the candidate settings may be chosen: the reference is there for comparison only (and a
+    # reference on a grid of its own, Pilot.off_grid, is no setting a job can run)
+    choosable = [r for r in rows if not (r["reference"] and pilot.off_grid)]
+    allowed = {(dxs_used(choosable, dx), k) for dx, k in settings}
+    summary = {key: v for key, v in setting_summary(choosable).items()
                if key[:2] in allowed and (forced_tol_f is None or key[2] == forced_tol_f)}
     within = {k: v for k, v in summary.items() if v[0] <= budget}
     if not within:

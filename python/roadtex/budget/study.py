@@ -76,10 +76,17 @@ from roadtex.budget.estimate import (  # noqa: F401 - re-exported: the rule's na
     stated_errors,
 )
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB, in_budget
-from roadtex.budget.sizes import five_smooth_ladder
+from roadtex.budget.sizes import five_smooth_ladder, is_five_smooth, next_five_smooth
 from roadtex.errors import InvalidInputError, RoadtexWarning
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import DEFAULT_INTERPOLANT, Interpolant, check_interpolant, prolong_pressure, refine_periodic
+from roadtex.models.grid import (
+    DEFAULT_INTERPOLANT,
+    Interpolant,
+    check_interpolant,
+    prolong_pressure,
+    refine_periodic,
+    resample_periodic,
+)
 from roadtex.profiles.conditioning import clean
 from roadtex.profiles.coverage import MAX_MISSING_SHARE, missing_shares, too_few_readings
 from roadtex.profiles.profile import Profile
@@ -177,6 +184,28 @@ class Pilot:
     # rungs): a candidate and the tolerance effect that ask for the same solve share it
     solved: dict[tuple[int, float], tuple[np.ndarray, np.ndarray, float, float]] = dataclasses.field(
         default_factory=dict)
+    # points a segment of the reference's k = 1 rung (:func:`ladder_points`; rung k has k times as
+    # many): ``points`` where that is FFT-friendly, else the next 5-smooth count (0: ``points``)
+    ladder: int = 0
+
+    def rung_points(self, k: int) -> int:
+        """Points a segment of the reference's rung k."""
+        return (self.ladder or self.points) * int(k)
+
+    @property
+    def off_grid(self) -> bool:
+        """Whether the reference's rungs are grids other than the file's refined k times (then no
+        rung is a candidate's solve)."""
+        return self.rung_points(1) != self.points
+
+
+def ladder_points(points: int) -> int:
+    """Points a segment of the reference's k = 1 rung for data of ``points`` a segment: the data's
+    own count when it is 5-smooth, else the next 5-smooth count (the same road on a grid at most a
+    few per cent finer, :func:`roadtex.models.grid.resample_periodic`). The rungs are k times that:
+    on CAPTIF's 13,337-point segments (a prime: every FFT of N k points takes the slow algorithm)
+    13,500 k, solved 1.6 to 1.8 times faster at k = 1, 2 and 4 (issue 39, 2026-12-04)."""
+    return points if is_five_smooth(points) else next_five_smooth(points)
 
 
 def as_profiles(profile: Profile | Sequence[Profile]) -> list[Profile]:
@@ -266,20 +295,27 @@ def solver_work(iterations: np.ndarray, points: int) -> float:
 
 def solve_levels(pilot: Pilot, heights: np.ndarray, dx: float, tol: float, refine: int = 1,
                  interpolant: Interpolant | None = None, initial_pressure: np.ndarray | None = None,
-                 keep: dict[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
+                 keep: dict[int, np.ndarray] | None = None,
+                 points: int | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Enveloped and pressure levels (2, rows, bands) of ``heights`` (sampled every ``dx``) solved on
     a model grid ``refine`` times finer at ``tol`` (the readings joined by ``interpolant``, by default
     the job's, ``pilot.interpolant``), reported flags, seconds, and the work (:func:`solver_work`).
     ``initial_pressure`` (rows, moduli, points; Pa): each problem's start (else the moduli chained,
-    as the job solves); ``keep``: receives the pressures solved, as ``keep[refine]``."""
+    as the job solves); ``keep``: receives the pressures solved, as ``keep[refine]``; ``points``: a
+    model grid of that many points a segment instead (a reference rung, :meth:`Pilot.rung_points`)."""
     start = time.perf_counter()
-    model = refine_periodic(heights, refine, pilot.interpolant if interpolant is None else interpolant)
-    batch = contact_many(model, dx / refine, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
+    road = pilot.interpolant if interpolant is None else interpolant
+    n = heights.shape[-1]
+    if points is None or points == n * refine:
+        model, model_dx = refine_periodic(heights, refine, road), dx / refine
+    else:
+        model, model_dx = resample_periodic(heights, points, road), dx * n / points
+    batch = contact_many(model, model_dx, pilot.moduli, pilot.mean_pressure, poisson=pilot.poisson, tol=tol,
                          max_iterations=pilot.max_iterations, threads=pilot.threads,
                          warm_start=initial_pressure is None, initial_pressure=initial_pressure,
                          raise_on_nonconvergence=False)
     seconds = time.perf_counter() - start
-    levels, ok = contact_levels(batch.envelope, batch.pressure, dx / refine, pilot.bands["band"].to_numpy(),
+    levels, ok = contact_levels(batch.envelope, batch.pressure, model_dx, pilot.bands["band"].to_numpy(),
                                 pilot.band_kind, pilot.band_method)
     if keep is not None:
         keep[refine] = batch.pressure
@@ -337,7 +373,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                   heights.shape[1], bands, [starts[i] for i in chosen],
                   int(np.ceil(heights.shape[0] * moduli.size * max(float(group_scale), 1.0))),
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method,
-                  interpolant=road)
+                  interpolant=road, ladder=ladder_points(heights.shape[1]))
     pilot_heights = heights[chosen]
     metres = chosen.size * length
     # Each rung starts from the last one's pressures prolonged (the same readings, half the
@@ -351,10 +387,10 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
         start = prolong_pressure(below[1], k // below[0]) if below is not None and k % below[0] == 0 else None
         kept: dict[int, np.ndarray] = {}
         levels, _, seconds, work = solve_levels(pilot, pilot_heights, dx, REFERENCE_TOL, k, initial_pressure=start,
-                                                keep=kept)
+                                                keep=kept, points=pilot.rung_points(k))
         last.clear()
         last.update(kept)
-        if interpolants and k * pilot_heights.shape[1] <= SPREAD_MAX_POINTS:   # the spread's grid: the finest that fits
+        if interpolants and pilot.rung_points(k) <= SPREAD_MAX_POINTS:   # the spread's grid: the finest that fits
             spread_start.clear()
             spread_start.update(kept)
         pilot.sequence[k] = (levels, seconds / metres, work / metres)
@@ -365,7 +401,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
     finest = solve(1)
     k = 1
     while include_reference_error and 2 * k <= largest_refine:
-        if k > 1 and heights.shape[1] * 2 * k > REFERENCE_MAX_POINTS:
+        if k > 1 and pilot.rung_points(2 * k) > REFERENCE_MAX_POINTS:
             break
         finer = solve(2 * k)
         differences.append(run_extreme(finer, finest, pilot.run_rows))
@@ -424,14 +460,14 @@ def interpolant_spread(pilot: Pilot, heights: np.ndarray,
     ``start``: the job's road's pressures on grids of the sequence (k -> (rows, moduli, points), Pa),
     from which the other roads' solves start where given (issue 39: on the 1 km bench archive's
     segments at k = 8 and 16, 27 % less time than the moduli chained, the levels within SPREAD_TOL)."""
-    fitting = [k for k in pilot.sequence if k * heights.shape[1] <= SPREAD_MAX_POINTS]
+    fitting = [k for k in pilot.sequence if pilot.rung_points(k) <= SPREAD_MAX_POINTS]
     k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
     own = pilot.sequence[k][0]
     initial = (start or {}).get(k)
     spread = np.zeros(pilot.bands.height)
     for interpolant in spread_interpolants(pilot.interpolant):
         levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, SPREAD_TOL, k, interpolant,  # type: ignore[arg-type]
-                                       initial_pressure=initial)
+                                       initial_pressure=initial, points=pilot.rung_points(k))
         spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, own), 1, 0), pilot.run_rows).max(axis=0))
     return spread
 
@@ -457,7 +493,8 @@ def richardson_note(pilot: Pilot, band: int) -> str:
 
 def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int = 1) -> list[dict]:
     """One study row per (tol, band) for the data at ``dx`` on a model grid ``refine`` times finer
-    (the reference's own rows at the file's dx, the reference's refinement and :data:`REFERENCE_TOL`)."""
+    (the reference's own rows at the file's dx, the reference's refinement and :data:`REFERENCE_TOL`,
+    when its rungs are the file's grids refined: see :attr:`Pilot.off_grid` and :func:`reference_rows`)."""
     is_file_dx = abs(dx - pilot.dx) <= 1e-9 * pilot.dx
     if is_file_dx:
         texture = np.zeros(pilot.bands.height)
@@ -469,8 +506,9 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
     metres = (len(pilot.pilot) if heights is None else heights.shape[0]) * pilot.segment_length
     rows = []
     for tol in tols:
-        is_reference = is_file_dx and tol == REFERENCE_TOL and refine == pilot.refine
-        if is_file_dx and tol == REFERENCE_TOL and refine in pilot.sequence:
+        # a rung of the reference is this candidate's solve only when it is on the file's grid refined
+        is_rung = is_file_dx and tol == REFERENCE_TOL and refine in pilot.sequence and not pilot.off_grid
+        if is_rung:
             solved, seconds_per_metre, work_per_metre = pilot.sequence[refine]
             ok = np.ones(pilot.bands.height, bool)
         else:
@@ -478,21 +516,54 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
                                          else solve_levels(pilot, heights, used, tol, refine))
             seconds_per_metre, work_per_metre = seconds / metres, work / metres
         errors = run_extreme(solved, pilot.levels, pilot.run_rows, PILOT_SPREAD_FACTOR) + pilot.reference_error
-        errors = np.where(ok, errors, np.inf)
-        for j, band in enumerate(pilot.bands.iter_rows(named=True)):
-            row = {
-                "dx": used, "points": points, "refine": int(refine), "model_dx": used / refine, "tol": float(tol),
-                "reference": bool(is_reference), "band": band["band"],
-                "label": band["label"], "centre_wavelength": band["centre_wavelength"],
-                "in_budget": band["in_budget"], "seconds_per_metre": seconds_per_metre,
-                "work_per_metre": work_per_metre,
-                "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
-                "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
-                "richardson": richardson_note(pilot, j),
-            }
-            row["level_error_db"] = max(row["texture_error_db"], row["enveloped_error_db"], row["pressure_error_db"])
-            rows.append(row)
+        rows += study_rows(pilot, used, points, refine, tol, is_rung and refine == pilot.refine, texture,
+                           np.where(ok, errors, np.inf), (seconds_per_metre, work_per_metre))
     return rows
+
+
+def reference_rows(pilot: Pilot) -> list[dict]:
+    """The study rows of the reference itself (tol :data:`REFERENCE_TOL`, refinement K, errors its
+    own): :func:`candidate_rows`' where its rungs are the file's grids refined, else rows of its own
+    grid (``points`` :meth:`Pilot.rung_points` (1), ``model_dx`` the rung K's interval), which no
+    job solves and :func:`roadtex.budget.pilot.choose_setting` never chooses."""
+    if not pilot.off_grid:
+        return candidate_rows(pilot, pilot.dx, [REFERENCE_TOL], pilot.refine)
+    points = pilot.rung_points(1)
+    errors = np.broadcast_to(pilot.reference_error, (2, pilot.bands.height))
+    return study_rows(pilot, pilot.segment_length / points, points, pilot.refine, REFERENCE_TOL, True,
+                      np.zeros(pilot.bands.height), errors, (pilot.seconds_per_metre, pilot.work_per_metre))
+
+
+def study_rows(pilot: Pilot, dx: float, points: int, refine: int, tol: float, is_reference: bool,
+               texture: np.ndarray, errors: np.ndarray, cost: tuple[float, float]) -> list[dict]:
+    """One study row per band of a setting: ``dx`` (m) and ``points`` a segment, refined ``refine``
+    times, at ``tol``; ``texture`` (bands,) and ``errors`` (2, bands: enveloped, pressure) in dB;
+    ``cost``: (seconds, work) per metre."""
+    rows = []
+    for j, band in enumerate(pilot.bands.iter_rows(named=True)):
+        row = {
+            "dx": dx, "points": points, "refine": int(refine), "model_dx": dx / refine, "tol": float(tol),
+            "reference": bool(is_reference), "band": band["band"],
+            "label": band["label"], "centre_wavelength": band["centre_wavelength"],
+            "in_budget": band["in_budget"], "seconds_per_metre": cost[0], "work_per_metre": cost[1],
+            "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
+            "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
+            "richardson": richardson_note(pilot, j),
+        }
+        row["level_error_db"] = max(row["texture_error_db"], row["enveloped_error_db"], row["pressure_error_db"])
+        rows.append(row)
+    return rows
+
+
+def rung_levels(pilot: Pilot, tol: float, k: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """:func:`solve_levels` of the pilot segments on the reference's rung ``k`` at ``tol``: the
+    candidate's solve (:func:`pilot_segment_levels`) where the rungs are the file's grids refined,
+    else a solve of the rung's own grid (so that a tolerance's effect is measured on one grid)."""
+    if not pilot.off_grid:
+        return pilot_segment_levels(pilot, tol, k)
+    heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
+    return solve_levels(pilot, heights[match(pilot.starts, pilot.pilot)], pilot.dx, tol, k,
+                        points=pilot.rung_points(k))
 
 
 def default_dx_ladder(pilot: Pilot) -> list[float]:

@@ -199,3 +199,48 @@ def prolong_pressure(coarse: np.ndarray, factor: int) -> np.ndarray:
     for j in range(k):
         fine[..., j::k] = coarse + (following - coarse) * (j / k)
     return fine
+
+
+def resample_periodic(heights: np.ndarray, points: int, interpolant: Interpolant = DEFAULT_INTERPOLANT) -> np.ndarray:
+    """Periodic segments of N readings on a grid of ``points`` equal intervals per period (any count,
+    not only a multiple of N): the road :func:`refine_periodic` joins the readings into, sampled at
+    ``j N / points`` reading intervals, j = 0 .. points - 1.
+
+    What it is for: the error pilot's reference is a sequence of ever finer grids of the same road
+    (:func:`roadtex.budget.study.build_pilot`), and where N has a large prime factor (CAPTIF's 0.5 m
+    segments: 13,337 points) every grid N k would be transformed by the slow FFT algorithm; a
+    5-smooth count of points just above N k samples the same road, 1.6 to 1.8 times faster to solve.
+
+    Args:
+        heights: (..., N) heights (m) of periodic segments.
+        points: the grid's points per period, at least 1 (``N k`` gives :func:`refine_periodic`'s
+            grid, the same values to rounding).
+        interpolant: as for :func:`refine_periodic`.
+
+    Raises:
+        InvalidInputError: ``points`` not a whole number from 1 to :data:`MAX_MODEL_POINTS`, or a NaN
+            or infinite reading.
+
+    Returns:
+        (..., points) heights (m); grid point 0 is reading 0.
+    """
+    from scipy.interpolate import PchipInterpolator
+    from scipy.signal import resample  # scipy on first use: the command line starts without it
+    kind = check_interpolant(interpolant)
+    count = whole_number(points, "points", 1)
+    z = np.asarray(heights, dtype=np.float64)
+    if z.ndim < 1 or z.shape[-1] < 1:
+        raise InvalidInputError(f"heights must hold at least one reading per segment, got shape {z.shape}")
+    n = z.shape[-1]
+    check_model_heights(z, count, "segment")
+    if kind == "bandlimited":
+        return resample(z, count, axis=-1)
+    positions = np.arange(count, dtype=np.float64) * (n / count)   # in reading intervals, in [0, n)
+    if kind == "linear":
+        left = np.minimum(np.floor(positions).astype(np.int64), n - 1)
+        fraction = positions - left
+        following = np.roll(z, -1, axis=-1)
+        return z[..., left] + (following[..., left] - z[..., left]) * fraction
+    pad = min(PCHIP_PADDING, n)
+    extended = np.concatenate([z[..., n - pad:], z, z[..., :pad]], axis=-1)
+    return PchipInterpolator(np.arange(-pad, n + pad, dtype=np.float64), extended, axis=-1)(positions)
