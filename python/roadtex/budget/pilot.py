@@ -2,7 +2,7 @@
 
 :func:`choose_setting` builds the reference of :mod:`roadtex.budget.study` on a few pilot segments
 (the data's grid refined until converged), then bisects the candidate model grids (the data
-resampled coarser, then the data's grid refined k times: :func:`roadtex.budget.study.default_settings`)
+resampled coarser, then the data's grid refined k times: :func:`roadtex.budget.candidates.default_settings`)
 from the coarsest (cheapest) to the finest for the coarsest one within the budget in every budget
 band, each at the loosest tol and then at tighter ones only while the miss is smaller than what a
 tighter tol can gain (see :func:`tolerance_effect`).
@@ -21,6 +21,14 @@ import numpy as np
 import polars as pl
 
 from roadtex._checks import positive
+from roadtex.budget.candidates import (
+    as_frame,
+    candidate_rows,
+    check_candidates,
+    default_settings,
+    reference_rows,
+    rung_levels,
+)
 from roadtex.budget.noise import DEFAULT_ERROR_BUDGET_DB
 from roadtex.budget.study import (
     DEFAULT_PILOT_SEGMENTS,
@@ -29,14 +37,8 @@ from roadtex.budget.study import (
     REFINE_LADDER,
     SPREAD_MAX_POINTS,
     Pilot,
-    as_frame,
     build_pilot,
-    candidate_rows,
-    check_candidates,
-    default_settings,
-    reference_rows,
     run_extreme,
-    rung_levels,
 )
 from roadtex.models.grid import DEFAULT_INTERPOLANT, check_refine
 from roadtex.profiles.profile import Profile
