@@ -17,7 +17,7 @@ import pytest
 import roadtex
 import roadtex.budget.pilot as pilot_module
 from roads import job_road
-from roadtex.budget import study
+from roadtex.budget import candidates, study
 from roadtex.budget.study import (
     MAX_ORDER,
     MEASURED,
@@ -138,7 +138,9 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
         tolerance.append(k * pilot.points)
         return measure(pilot, tol, k)
 
+    # the candidates' own solves (resampled data, off-grid rungs) are made in roadtex.budget.candidates
     monkeypatch.setattr(study, "solve_levels", counting("study", study.solve_levels))
+    monkeypatch.setattr(candidates, "solve_levels", counting("candidates", candidates.solve_levels))
     monkeypatch.setattr(pilot_module, "tolerance_effect", measuring)
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
     assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
@@ -164,15 +166,17 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
         return original(pilot, tol, k)
 
     solves: list[tuple[float, float, int]] = []
-    solve = study.solve_levels
 
-    def counting(pilot, heights, dx, tol, refine=1, interpolant=None, **starts):
-        if interpolant is None and tol != study.REFERENCE_TOL:
-            solves.append((round(dx, 12), tol, refine))
-        return solve(pilot, heights, dx, tol, refine, interpolant, **starts)
+    def counting(solve):
+        def counted(pilot, heights, dx, tol, refine=1, interpolant=None, **starts):
+            if interpolant is None and tol != study.REFERENCE_TOL:
+                solves.append((round(dx, 12), tol, refine))
+            return solve(pilot, heights, dx, tol, refine, interpolant, **starts)
+        return counted
 
     monkeypatch.setattr(pilot_module, "tolerance_effect", spy)
-    monkeypatch.setattr(study, "solve_levels", counting)
+    monkeypatch.setattr(study, "solve_levels", counting(study.solve_levels))
+    monkeypatch.setattr(candidates, "solve_levels", counting(candidates.solve_levels))
     profile = roadtex.synthetic_pavement("cement_concrete", 2.0, 0.5e-3, seed=6)
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
                                     interpolants=False)
@@ -195,34 +199,81 @@ def test_the_tolerance_effect_is_measured_only_for_a_miss_on_the_coarsest_rung_a
     assert measured == []
 
 
-def test_a_reference_off_the_data_grid_where_its_points_are_not_fft_friendly(monkeypatch: pytest.MonkeyPatch) -> None:
-    # 0.5 m segments of 1,009 readings (a prime, like CAPTIF's 13,337): the reference's rungs are
-    # the same road on 1,024 k points; its statements still cover the actual error against k = 32
-    # on the data's own grid, solved here independently
-    dx = SEGMENT / 1009
-    profile = roadtex.synthetic_pavement("dense_asphalt", 5.0, dx, seed=4)
-    grids: list[int] = []
-    solve = study.solve_levels
+def prime_road(points: int, seed: int) -> roadtex.Profile:
+    """5 m of dense asphalt whose 0.5 m segments hold ``points`` readings (a prime: not 5-smooth)."""
+    return roadtex.synthetic_pavement("dense_asphalt", 5.0, SEGMENT / points, seed=seed)
 
-    def counting(pilot, heights, dx, tol, refine=1, interpolant=None, **more):
-        grids.append(more.get("points") or heights.shape[1] * refine)
-        return solve(pilot, heights, dx, tol, refine, interpolant, **more)
 
-    monkeypatch.setattr(study, "solve_levels", counting)
-    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
-                                    interpolants=False)
-    rungs = [1024 * 2 ** i for i in range(6) if 2 ** i <= choice.reference_refine]
-    assert choice.reference_refine >= 2 and set(rungs) <= set(grids)
-    reference = choice.study.filter(pl.col("reference"))
-    assert reference["points"].unique().to_list() == [1024]
-    assert reference["model_dx"].unique().to_list() == [pytest.approx(SEGMENT / (1024 * choice.reference_refine))]
-    # the chosen setting is one a job can run: the data (or the data resampled) refined k times
-    assert choice.points != 1024 and choice.within_budget
-    data = profile.conditioned(spike_alpha=None).segments(SEGMENT)
-    assert data.heights.shape[1] == 1009
-    truth = levels(job_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+def actual_at(profile: roadtex.Profile, choice: roadtex.BudgetChoice, truth: dict[int, np.ndarray]) -> dict[int, float]:
+    """Band -> worst |level - truth| over segments, moduli and kinds of the job's setting ``choice``
+    (the data at choice.dx, refined choice.refine times, at choice.tol), solved here."""
     run = profile.conditioned(spike_alpha=None, dx=choice.dx).segments(SEGMENT)
     model = levels(job_road(run.heights, choice.refine), run.dx / choice.refine, choice.tol)
-    for band in choice.budget_bands:
-        actual = float(np.max(np.abs(model[band] - truth[band])))
+    return {b: float(np.max(np.abs(model[b] - truth[b]))) for b in choice.budget_bands}
+
+
+def truth_of(profile: roadtex.Profile) -> dict[int, np.ndarray]:
+    """The k = 32 levels of every segment on the data's own grid (tol 1e-10)."""
+    data = profile.conditioned(spike_alpha=None).segments(SEGMENT)
+    return levels(job_road(data.heights, TRUTH_REFINE), data.dx / TRUTH_REFINE, 1e-10)
+
+
+def test_a_reference_off_the_data_grid_where_its_points_are_not_fft_friendly(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 0.5 m segments of 1,009 readings (a prime, like CAPTIF's 13,337): the reference's rungs, its
+    # spread's and its tolerance effect's solves are the same road on 1,024 k points; its statements
+    # still cover the actual error against k = 32 on the data's own grid, solved here independently;
+    # candidates at the file's dx are solved on its own grid, 1,009 k, as a job solves them
+    profile = prime_road(1009, seed=4)
+    grids: list[tuple[str, float, int]] = []
+
+    def counting(solve):
+        def counted(pilot, heights, dx, tol, refine=1, interpolant=None, **more):
+            grids.append((interpolant or pilot.interpolant, tol, more.get("points") or heights.shape[1] * refine))
+            return solve(pilot, heights, dx, tol, refine, interpolant, **more)
+        return counted
+
+    monkeypatch.setattr(study, "solve_levels", counting(study.solve_levels))
+    monkeypatch.setattr(candidates, "solve_levels", counting(candidates.solve_levels))
+    choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
+    rungs = [1024 * 2 ** i for i in range(6) if 2 ** i <= choice.reference_refine]
+    reference_solves = {n for road, tol, n in grids if road == "pchip" and tol == study.REFERENCE_TOL}
+    assert choice.reference_refine >= 2 and set(rungs) <= reference_solves
+    assert {n for road, _, n in grids if road == "linear"} <= set(rungs)   # the spread on a rung's grid
+    loose = {n for road, tol, n in grids if road == "pchip" and tol != study.REFERENCE_TOL}
+    assert any(n % 1009 == 0 for n in loose)   # a candidate at the file's dx, on its own grid
+    assert not any(n % 1009 == 0 and n % 1024 == 0 for n in loose)
+    reference = choice.study.filter(pl.col("reference"))
+    assert reference["points"].unique().to_list() == [1024] and not reference["choosable"].any()
+    assert reference["model_dx"].unique().to_list() == [pytest.approx(SEGMENT / (1024 * choice.reference_refine))]
+    assert choice.study.filter(~pl.col("reference"))["choosable"].all()
+    # the chosen setting is one a job can run: the data (or the data resampled) refined k times
+    assert choice.points != 1024 and choice.within_budget
+    truth = truth_of(profile)
+    for band, actual in actual_at(profile, choice, truth).items():
         assert choice.band_error_db[band] >= actual, (band, choice.band_error_db[band], actual)
+
+
+def test_an_off_grid_reference_is_never_the_setting_chosen() -> None:
+    # 499 readings a 0.5 m segment: the reference's rungs are 500 k points, 1 mm apart at k = 1,
+    # the very grid of a 1 mm candidate; forced there (1 mm, k = 16, tol 1e-6), the statement is the
+    # candidate's (the data averaged to 1 mm, refined 16 times), not the reference's own error
+    profile = prime_road(499, seed=5)
+    truth = truth_of(profile)
+    forced = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                    interpolants=False, forced_dx=1e-3, forced_refine=16, forced_tol=1e-6)
+    assert forced.points == 500 and forced.refine == 16
+    assert len(forced.budget_bands) == len(set(forced.budget_bands))
+    for band, actual in actual_at(profile, forced, truth).items():
+        assert forced.band_error_db[band] >= actual, (band, forced.band_error_db[band], actual)
+    # a budget nothing meets: the cheapest setting near the floor, never the reference's own rows
+    floor = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                   interpolants=False, budget_db=1e-4)
+    assert not floor.within_budget
+    reference = floor.study.filter(pl.col("reference"))
+    assert not reference["choosable"].any() and reference["level_error_db"].max() < floor.worst_error_db
+    # without a reference error the reference is the data's own grid, 499 points
+    table = roadtex.convergence_study(profile, youngs_modulus=MODULI, mean_pressure=2e5, segment_length=SEGMENT,
+                                      include_reference_error=False, refine_candidates=[1, 2])
+    reference = table.filter(pl.col("reference"))
+    assert reference["points"].unique().to_list() == [499] and reference["refine"].unique().to_list() == [1]
+    assert reference["choosable"].all()

@@ -304,3 +304,26 @@ def test_a_quiet_rows_larger_statement_marks_a_band_only_when_it_moves_the_drawn
     loud = table(60.0, 1.0)        # the same statement on a row as loud as the others: the mean moves
     assert mean_error(loud.filter(pl.col("band") == 20)) > 0.2
     assert over_budget_bands(results, loud) == {"dense": {20, 21}}
+
+
+def test_a_reference_on_a_grid_of_its_own_is_no_floor_the_report_offers() -> None:
+    """Segments of 499 readings (a prime): the pilot's reference is the same road on 500 k points, the
+    grid of a 1 mm candidate; its rows (its own error only, far below any setting's) share that
+    candidate's (dx, k, tol) and are no setting: the floor the report states is the best choosable one."""
+    from types import SimpleNamespace
+
+    import roadtex
+    from roadtex.report.error_budget import floor_db, setting_points
+
+    profile = roadtex.synthetic_pavement("dense_asphalt", 5.0, 0.5 / 499, seed=5)
+    choice = roadtex.choose_setting(profile, youngs_moduli=(2e6,), mean_pressure=2e5, segment_length=0.5,
+                                    interpolants=False, budget_db=1e-4, dx_candidates=[0.5 / 499, 1e-3],
+                                    refine_candidates=[1, 2])
+    study = choice.study.with_columns(pl.lit("g").alias("group"), pl.lit(False).alias("chosen"))
+    reference = study.filter(pl.col("reference"))
+    assert not reference["choosable"].any() and (reference["points"] == 500).all()
+    floor, group = floor_db(SimpleNamespace(pilot=study, parameters={}))   # type: ignore[arg-type]
+    assert group == "g" and floor == pytest.approx(choice.worst_error_db)
+    assert floor > reference.filter(pl.col("in_budget"))["level_error_db"].max()
+    points = setting_points(study)
+    assert points.filter(pl.col("reference")).height == 1 and not points.filter(pl.col("reference"))["choosable"][0]

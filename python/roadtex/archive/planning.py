@@ -177,7 +177,7 @@ def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOpt
             continue
         study = choice.study.with_columns(
             pl.lit(label).alias("group"), ((pl.col("dx") == choice.dx) & (pl.col("refine") == choice.refine)
-                                           & (pl.col("tol") == choice.tol)).alias("chosen"))
+                                           & (pl.col("tol") == choice.tol) & pl.col("choosable")).alias("chosen"))
         chosen_work = study.filter(pl.col("chosen"))["work_per_metre"].max()
         finest_work = study.filter(pl.col("reference"))["work_per_metre"].max()
         pilots.append(GroupPilot(

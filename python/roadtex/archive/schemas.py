@@ -177,6 +177,7 @@ PILOT_COLUMNS: Columns = {
     "level_error_db": (pl.Float64(), "dB"),
     "pilot_segments": (pl.Int64(), "count"),
     "richardson": (pl.String(), None),            # how the reference's own error was judged (one halving / not converging: factor 4)
+    "choosable": (pl.Boolean(), None),            # a setting a job can run (False: a reference on a grid of its own)
 }
 ERROR_COLUMNS: Columns = {
     "run_id": (pl.String(), None),

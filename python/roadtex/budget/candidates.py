@@ -118,6 +118,8 @@ def study_rows(pilot: Pilot, dx: float, points: int, refine: int, tol: float, is
             "texture_error_db": float(texture[j]), "enveloped_error_db": float(errors[0, j]),
             "pressure_error_db": float(errors[1, j]), "pilot_segments": len(pilot.pilot),
             "richardson": richardson_note(pilot, j),
+            # a setting a job can run (not a reference on a grid of its own, Pilot.off_grid)
+            "choosable": not (is_reference and pilot.off_grid),
         }
         row["level_error_db"] = max(row["texture_error_db"], row["enveloped_error_db"], row["pressure_error_db"])
         rows.append(row)
@@ -221,7 +223,9 @@ def convergence_study(profile: Profile | Sequence[Profile], *, youngs_modulus: f
         modulus, per metre of road), ``texture_error_db``, ``enveloped_error_db``,
         ``pressure_error_db`` (upper estimates of each level's numerical error, dB, worst over
         segments and moduli; inf where the band is not reported at that dx), ``level_error_db``
-        (the largest of the three) and ``pilot_segments``.
+        (the largest of the three), ``pilot_segments``, ``richardson`` and ``choosable`` (False
+        only for the reference's rows where its rungs are a grid of their own, N not 5-smooth:
+        no setting a job runs).
 
     Raises:
         InvalidInputError: bad arguments, a run too short for one segment, no reported band.

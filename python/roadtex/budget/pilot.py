@@ -62,7 +62,7 @@ class BudgetChoice:
         budget_bands: the band numbers the budget applies to (see :mod:`roadtex.budget.noise`).
         worst_error_db: the largest ``band_error_db`` over the budget bands (dB).
         seconds_per_metre: measured solve time at (dx, tol), every modulus, per metre of road (s/m).
-        finest_seconds_per_metre: the same at the reference (file dx refined K times, the reference tol) (s/m).
+        finest_seconds_per_metre: the same at the reference (the file's road K times finer, the reference tol) (s/m).
         pilot_seconds: wall time of the whole pilot (s).
         forced: whether dx or tol was forced.
         study: the rows of :func:`roadtex.convergence_study` the pilot evaluated.
@@ -128,7 +128,8 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     """How much tightening the loosest tol can lower an estimate (dB), and the finest model interval
     (m) that bound holds for.
 
-    The tol error is measured on the pilot segments at the file's dx on rung ``k`` of the
+    The tol error is measured on the pilot segments at the file's dx (on the rung's own grid where
+    the rungs are not the file's grids refined, :attr:`~roadtex.budget.study.Pilot.off_grid`) on rung ``k`` of the
     reference's sequence (default: the reference's own where it is one of :func:`tolerance_rungs`,
     else the finest of them), against the same
     grid at the reference tol. The solver's criterion is a gap relative to the profile's peak-to-valley
@@ -141,7 +142,8 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     levels, ok, _, _ = rung_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made and on its grid
     budget = pilot.bands["in_budget"].to_numpy() & ok
     gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
-    return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.dx / k
+    interval = pilot.dx / k if not pilot.off_grid else pilot.dx * pilot.points / pilot.rung_points(k)
+    return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), interval
 
 
 def coarsest_passing(size: int, passes: Callable[[int], bool], solved: Callable[[int], bool]) -> int:
@@ -288,7 +290,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
     forced = forced_dx_f is not None or forced_tol_f is not None or forced_refine_k is not None
     # only the candidate settings may be chosen: the reference is there for comparison only (and a
     # reference on a grid of its own, Pilot.off_grid, is no setting a job can run)
-    choosable = [r for r in rows if not (r["reference"] and pilot.off_grid)]
+    choosable = [r for r in rows if r["choosable"]]
     allowed = {(dxs_used(choosable, dx), k) for dx, k in settings}
     summary = {key: v for key, v in setting_summary(choosable).items()
                if key[:2] in allowed and (forced_tol_f is None or key[2] == forced_tol_f)}
@@ -300,7 +302,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         within = {k: v for k, v in summary.items() if v[0] <= 1.05 * floor + 0.01}
     key = min(within, key=lambda k: (within[k][1], -k[0] / k[1]))
     worst, _, seconds = summary[key]
-    chosen = [r for r in rows if (r["dx"], r["refine"], r["tol"]) == key]
+    chosen = [r for r in choosable if (r["dx"], r["refine"], r["tol"]) == key]
     spread = pilot.interpolant_spread
     return BudgetChoice(
         dx=key[0], refine=key[1], tol=key[2], points=chosen[0]["points"], budget_db=budget, within_budget=worst <= budget,

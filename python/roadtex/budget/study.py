@@ -148,7 +148,7 @@ STUDY_SCHEMA = {
     "label": pl.String, "centre_wavelength": pl.Float64, "in_budget": pl.Boolean,
     "seconds_per_metre": pl.Float64, "work_per_metre": pl.Float64, "texture_error_db": pl.Float64, "enveloped_error_db": pl.Float64,
     "pressure_error_db": pl.Float64, "level_error_db": pl.Float64, "pilot_segments": pl.Int64,
-    "richardson": pl.String,
+    "richardson": pl.String, "choosable": pl.Boolean,
 }
 
 
@@ -203,10 +203,12 @@ class Pilot:
 
 def ladder_points(points: int) -> int:
     """Points a segment of the reference's k = 1 rung for data of ``points`` a segment: the data's
-    own count when it is 5-smooth, else the next 5-smooth count (the same road on a grid at most a
-    few per cent finer, :func:`roadtex.models.grid.resample_periodic`). The rungs are k times that:
-    on CAPTIF's 13,337-point segments (a prime: every FFT of N k points takes the slow algorithm)
-    13,500 k, solved 1.6 to 1.8 times faster at k = 1, 2 and 4 (issue 39, 2026-12-04)."""
+    own count when it is 5-smooth, else the next 5-smooth count (the same road on a slightly finer
+    grid, 1.2 % for CAPTIF's, :func:`roadtex.models.grid.resample_periodic`). The rungs are k times
+    that: on CAPTIF's 13,337-point segments (a prime: every FFT of N k points takes the slow
+    algorithm) 13,500 k, solved 1.6, 1.4 and 1.8 times faster at k = 1, 2 and 4 (issue 39, 2026-12-04).
+    Only with a reference error (:func:`build_pilot`'s ``include_reference_error``): else the
+    reference is the data's own grid."""
     return points if is_five_smooth(points) else next_five_smooth(points)
 
 
@@ -375,7 +377,9 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                   heights.shape[1], bands, [starts[i] for i in chosen],
                   int(np.ceil(heights.shape[0] * moduli.size * max(float(group_scale), 1.0))),
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method,
-                  interpolant=road, ladder=ladder_points(heights.shape[1]))
+                  interpolant=road,
+                  # without a reference error the reference is the data's own grid (k = 1), whatever N
+                  ladder=ladder_points(heights.shape[1]) if include_reference_error else heights.shape[1])
     pilot_heights = heights[chosen]
     metres = chosen.size * length
     # Each rung starts from the last one's pressures prolonged (the same readings, half the

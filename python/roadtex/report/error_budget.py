@@ -42,11 +42,14 @@ def with_model_grid(pilot: pl.DataFrame) -> pl.DataFrame:
 
 def setting_points(pilot: pl.DataFrame) -> pl.DataFrame:
     """One row per group and setting (dx, refine, tol) of ``pilot.parquet``: ``group``, ``dx`` (m),
-    ``refine`` (k), ``tol``, ``model_dx`` (m), ``points``, ``chosen``, ``reference``,
+    ``refine`` (k), ``tol``, ``choosable``, ``model_dx`` (m), ``points``, ``chosen``, ``reference``,
     ``worst_error_db`` (the largest ``level_error_db`` over the budget bands, dB; inf when one of
     them is not reported at that dx) and ``seconds_per_km`` (measured solve time for every modulus
     per km of road, s/km), in the order the pilot wrote them."""
-    return (with_model_grid(pilot).group_by("group", "dx", "refine", "tol", maintain_order=True)
+    # a reference on a grid of its own (``choosable`` False, 0.5.14 on) is no setting: kept apart
+    rows = with_model_grid(pilot)
+    rows = rows if "choosable" in rows.columns else rows.with_columns(pl.lit(True).alias("choosable"))
+    return (rows.group_by("group", "dx", "refine", "tol", "choosable", maintain_order=True)
             .agg(pl.col("model_dx").first(), pl.col("points").first(), pl.col("chosen").any(),
                  pl.col("reference").any(),
                  pl.col("level_error_db").filter(pl.col("in_budget")).max().alias("worst_error_db"),
@@ -146,7 +149,7 @@ def fig_setting_speed_vs_error(plt, results: Results):
         reference = drawn.filter(pl.col("reference"))
         if reference.height:
             ax.scatter(reference["worst_error_db"], reference["seconds_per_km"], s=90, marker="s",
-                       facecolors="none", edgecolors="0.25", lw=1.2, zorder=4, label="reference (the data's grid refined K times)")
+                       facecolors="none", edgecolors="0.25", lw=1.2, zorder=4, label="reference (the readings' road K times finer)")
         unreported = mine.filter(~(pl.col("worst_error_db").is_finite() & (pl.col("worst_error_db") > 0)))
         if unreported.height:
             # settings whose dx does not report every budget band have no finite worst error: drawn at
@@ -326,11 +329,12 @@ def sampling_summary(results: Results) -> str:
 
 
 def choosable(points: pl.DataFrame, results: Results) -> pl.DataFrame:
-    """The settings of :func:`setting_points` the pilots could choose from: those matching what the
-    caller forced (parameters.json ``options`` dx, refine, tol; for dx the group's nearest interval,
-    as the pilot takes it); all of them when nothing was forced."""
+    """The settings of :func:`setting_points` the pilots could choose from (a reference on a grid of
+    its own is none): those matching what the caller forced (parameters.json ``options`` dx,
+    refine, tol; for dx the group's nearest interval, as the pilot takes it); all of them when
+    nothing was forced."""
     requested = results.parameters.get("options") or {}
-    chosen = points
+    chosen = points.filter(pl.col("choosable"))
     if requested.get("dx") is not None:
         gap = (pl.col("dx") - requested["dx"]).abs()
         chosen = chosen.filter(gap == gap.min().over("group"))
@@ -389,7 +393,7 @@ def budget_summary(results: Results) -> str:
             rows = with_model_grid(results.pilot).filter(pl.col("reference"))
             ks, tols = sorted(set(rows["refine"].to_list())), sorted(set(rows["tol"].to_list()))
             if ks:
-                reference = (f"the file's sampling refined k = {', '.join(map(str, ks))} times, "
+                reference = (f"the readings' road k = {', '.join(map(str, ks))} times finer than the file's sampling, "
                              f"tol {', '.join(tolerance(t) for t in tols)}")
         text.append(
             f" Speed-up against the reference (each group's converged answer: {reference}): "
