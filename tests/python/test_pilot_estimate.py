@@ -119,16 +119,19 @@ def test_one_halving_needs_a_sixteenth_of_the_budget() -> None:
     assert not reference_converged([np.full((2, 3), 0.05), np.full((2, 3), 0.045)], budget_rows, 0.2)
 
 
-def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_fine_data_get_no_fine_tolerance_solves_and_a_spread_off_their_readings(monkeypatch: pytest.MonkeyPatch) -> None:
     # 0.025 mm: 20,000 points a 0.5 m segment; the reference refines at least once (40,000 points),
-    # the interpolants' spread and the tol effect stay within SPREAD_MAX_POINTS
+    # the tol effect stays within SPREAD_MAX_POINTS; the interpolants' spread, whose grid within it
+    # would be the readings' own (k = 1: there the two roads are the same points, the spread nil),
+    # is solved for both roads off the readings, on the next 5-smooth count above 2 N
     profile = roadtex.synthetic_pavement("dense_asphalt", 1.0, 0.025e-3, seed=2)
     solved: list[tuple[str, str, float, int]] = []
 
     def counting(where: str, original):
-        def solve(pilot, heights, dx, tol, refine=1, interpolant=None, **starts):
-            solved.append((where, interpolant or pilot.interpolant, tol, heights.shape[1] * refine))
-            return original(pilot, heights, dx, tol, refine, interpolant, **starts)
+        def solve(pilot, heights, dx, tol, refine=1, interpolant=None, **more):
+            points = more.get("points") or heights.shape[1] * refine
+            solved.append((where, interpolant or pilot.interpolant, tol, points))
+            return original(pilot, heights, dx, tol, refine, interpolant, **more)
         return solve
 
     tolerance: list[int] = []   # the rungs the tolerance effect is measured on (its solve may be a candidate's)
@@ -144,9 +147,13 @@ def test_fine_data_get_no_fine_spread_or_tolerance_solves(monkeypatch: pytest.Mo
     monkeypatch.setattr(pilot_module, "tolerance_effect", measuring)
     choice = roadtex.choose_setting(profile, youngs_moduli=MODULI, mean_pressure=2e5, segment_length=SEGMENT)
     assert choice.reference_refine >= 2 and max(n for *_, n in solved) >= 40000
-    spread = [n for where, interpolant, _, n in solved if interpolant == "linear"]   # the default pchip road against the linear one
-    assert spread and max(spread) <= SPREAD_MAX_POINTS
-    assert {tol for _, interpolant, tol, _ in solved if interpolant == "linear"} == {study.SPREAD_TOL}
+    spread_grid = study.next_five_smooth(2 * 20000 + 1)
+    assert spread_grid % 20000 != 0
+    spread = {(road, n) for _, road, tol, n in solved if tol == study.SPREAD_TOL and n == spread_grid}
+    assert spread == {("linear", spread_grid), ("pchip", spread_grid)}   # the default pchip road against the linear one
+    assert {tol for _, road, tol, _ in solved if road == "linear"} == {study.SPREAD_TOL}
+    assert not [n for _, road, _, n in solved if road == "linear" and n != spread_grid]
+    assert max(choice.interpolant_spread_db[b] for b in choice.budget_bands) > 0.0
     assert tolerance and max(tolerance) <= SPREAD_MAX_POINTS
     # every loose solve of the pilot segments is made once (a candidate and the tolerance effect share it)
     loose = [(tol, n) for _, interpolant, tol, n in solved if interpolant != "linear" and tol != study.REFERENCE_TOL]

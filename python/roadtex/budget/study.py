@@ -445,6 +445,8 @@ def spread_interpolants(interpolant: str) -> tuple[str, ...]:
 #: the reference's where the data are fine. The spread is the difference of two roads on one grid
 #: (0.1 to 3 dB), whose grid errors largely cancel: on CAPTIF at 0.0375 mm (13,337 points a segment)
 #: it is taken at k = 2 instead of the reference's k = 4 (the pchip solve was 15 of the pilot's 59 s).
+#: A rung of at most two points a reading on the readings' grid is not taken (:func:`interpolant_spread`):
+#: data of more than half this many points a segment get a grid of their own, about 2 N points.
 SPREAD_MAX_POINTS = 2 ** 15
 
 #: Tolerance of the other roads' solves of the interpolants' spread: the spread is 0.1 to 4 dB, and
@@ -461,18 +463,31 @@ def interpolant_spread(pilot: Pilot, heights: np.ndarray,
     same readings (:func:`spread_interpolants`: the linear road for the default monotone cubic), on
     the finest grid of the reference's sequence within :data:`SPREAD_MAX_POINTS` (the reference's own
     where it fits), spread to the run's rows as the errors are: what the data's sampling cannot tell
-    about the road between its readings.
+    about the road between its readings. Where that grid is the readings' own or holds every other
+    one (k = 1, or k = 2 on the file's grid refined), both roads are solved on the next 5-smooth
+    count above two points a reading instead, off the readings (there the roads agree).
 
     ``start``: the job's road's pressures on grids of the sequence (k -> (rows, moduli, points), Pa),
     from which the other roads' solves start where given (issue 39: on the 1 km bench archive's
     segments at k = 8 and 16, 27 % less time than the moduli chained, the levels within SPREAD_TOL)."""
     fitting = [k for k in pilot.sequence if pilot.rung_points(k) <= SPREAD_MAX_POINTS]
     k = pilot.refine if pilot.refine in fitting or not fitting else max(fitting)
-    own = pilot.sequence[k][0]
-    initial = (start or {}).get(k)
+    points = pilot.rung_points(k)
+    if k == 1 or (k == 2 and not pilot.off_grid):
+        # Every point (k = 1) or every other point (k = 2) of that grid a reading, where the roads
+        # agree: their difference under-sampled, nil at k = 1 (fine data, N > SPREAD_MAX_POINTS / 2).
+        # Both roads on about two points a reading off the readings instead (CAPTIF at 0.0375 mm,
+        # the 2.5 mm band: 0.027 dB at k = 2 on the readings' grid, 0.069 off them, 0.056 to 0.065
+        # converged; issue 39, benches/HISTORY-0.5.8.md 0.5.14).
+        points = next_five_smooth(2 * heights.shape[1] + 1)
+        own, _, _, _ = solve_levels(pilot, heights, pilot.dx, SPREAD_TOL, k, points=points)
+        initial = None
+    else:
+        own = pilot.sequence[k][0]
+        initial = (start or {}).get(k)
     spread = np.zeros(pilot.bands.height)
     for interpolant in spread_interpolants(pilot.interpolant):
         levels, _, _, _ = solve_levels(pilot, heights, pilot.dx, SPREAD_TOL, k, interpolant,  # type: ignore[arg-type]
-                                       initial_pressure=initial, points=pilot.rung_points(k))
+                                       initial_pressure=initial, points=points)
         spread = np.fmax(spread, extreme(np.moveaxis(difference(levels, own), 1, 0), pilot.run_rows).max(axis=0))
     return spread
