@@ -31,6 +31,7 @@ from roadtex.budget.study import (
     band_columns,
     build_pilot,
     match,
+    pilot_heights,
     pilot_segment_levels,
     segments_of,
     solve_levels,
@@ -97,9 +98,8 @@ def reference_rows(pilot: Pilot) -> list[dict]:
     job solves and :func:`roadtex.budget.pilot.choose_setting` never chooses."""
     if not pilot.off_grid:
         return candidate_rows(pilot, pilot.dx, [REFERENCE_TOL], pilot.refine)
-    points = pilot.rung_points(1)
     errors = np.broadcast_to(pilot.reference_error, (2, pilot.bands.height))
-    return study_rows(pilot, pilot.segment_length / points, points, pilot.refine, REFERENCE_TOL, True,
+    return study_rows(pilot, pilot.rung_dx(1), pilot.rung_points(1), pilot.refine, REFERENCE_TOL, True,
                       np.zeros(pilot.bands.height), errors, (pilot.seconds_per_metre, pilot.work_per_metre))
 
 
@@ -132,9 +132,7 @@ def rung_levels(pilot: Pilot, tol: float, k: int) -> tuple[np.ndarray, np.ndarra
     else a solve of the rung's own grid (so that a tolerance's effect is measured on one grid)."""
     if not pilot.off_grid:
         return pilot_segment_levels(pilot, tol, k)
-    heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
-    return solve_levels(pilot, heights[match(pilot.starts, pilot.pilot)], pilot.dx, tol, k,
-                        points=pilot.rung_points(k))
+    return solve_levels(pilot, pilot_heights(pilot), pilot.dx, tol, k, points=pilot.rung_points(k))
 
 
 def default_dx_ladder(pilot: Pilot) -> list[float]:

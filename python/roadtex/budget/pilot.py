@@ -142,8 +142,7 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
     levels, ok, _, _ = rung_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made and on its grid
     budget = pilot.bands["in_budget"].to_numpy() & ok
     gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
-    interval = pilot.dx / k if not pilot.off_grid else pilot.dx * pilot.points / pilot.rung_points(k)
-    return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), interval
+    return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.rung_dx(k)
 
 
 def coarsest_passing(size: int, passes: Callable[[int], bool], solved: Callable[[int], bool]) -> int:

@@ -194,6 +194,10 @@ class Pilot:
         """Points a segment of the reference's rung k."""
         return (self.ladder or self.points) * int(k)
 
+    def rung_dx(self, k: int) -> float:
+        """The model interval (m) of the reference's rung k: the file's dx / k on its own grid."""
+        return self.dx / k if not self.off_grid else self.dx * self.points / self.rung_points(k)
+
     @property
     def off_grid(self) -> bool:
         """Whether the reference's rungs are grids other than the file's refined k times (then no
@@ -331,9 +335,14 @@ def pilot_segment_levels(pilot: Pilot, tol: float, refine: int) -> tuple[np.ndar
     once per pilot (a candidate setting and the tolerance effect on the same rung are one solve)."""
     key = (int(refine), float(tol))
     if key not in pilot.solved:
-        heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
-        pilot.solved[key] = solve_levels(pilot, heights[match(pilot.starts, pilot.pilot)], pilot.dx, tol, refine)
+        pilot.solved[key] = solve_levels(pilot, pilot_heights(pilot), pilot.dx, tol, refine)
     return pilot.solved[key]
+
+
+def pilot_heights(pilot: Pilot) -> np.ndarray:
+    """The pilot segments' heights at the file's dx (pilot rows, points)."""
+    heights, _, _ = segments_of(pilot.cleaned, None, pilot.segment_length)
+    return heights[match(pilot.starts, pilot.pilot)]
 
 
 def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | Sequence[float],
