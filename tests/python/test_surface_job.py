@@ -101,8 +101,8 @@ def test_manifest_rejects_nonpositive_dy(tmp_path):
 
 def test_surface_example_is_the_middle_tile(tmp_path):
     surface = synthetic_surface("dense_asphalt", 0.6, 0.03, 1e-3, seed=4)
-    # on the data's grid (a finer model grid's example holds its values at the data's readings,
-    # whose mean pressure is not P)
+    # on the data's grid, where the map's pressure is the solve's own at each reading (a finer model
+    # grid's map holds each reading's cell mean, which can be > 0 where the reading itself is free)
     run_job(tmp_path, surface.heights, options=ProcessingOptions(**{**OPTIONS.__dict__, "refine": 1}))
     example = pl.read_parquet(tmp_path / "out" / "surface_examples.parquet")
     assert example["segment"].unique().to_list() == [1]

@@ -17,10 +17,10 @@ from roadtex.archive.tables import band_frame, defined_levels, model_levels, seg
 from roadtex.budget.sampling import STATEMENT_SCHEMA, run_statement
 from roadtex.errors import ArchiveWriteError, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import coarse_points, refine_periodic
+from roadtex.models.grid import coarse_points, reading_means, refine_periodic
 from roadtex.models.results import ContactBatch
 from roadtex.profiles.conditioning import CleaningSummary, clean
-from roadtex.profiles.coverage import missing_shares, too_few_readings
+from roadtex.profiles.coverage import flat_segments, height_scale, missing_shares, too_few_readings
 from roadtex.profiles.mpd import mpd as mean_profile_depth
 from roadtex.profiles.plausibility import (
     PLAUSIBLE_MAX_DX,
@@ -110,6 +110,8 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
     segments = run_stage("segment", lambda: conditioned.segments(options.segment_length, options.segment_overlap))
     n_segments, n_points = segments.heights.shape
     shares = missing_shares(missing, segments.start_indices, n_points)
+    # a segment of readings on a straight line (a plate, a held reading) has no texture: no level
+    flat = flat_segments(segments.heights, height_scale(resampled.heights))
     refine, tol = int(entry.refine or 1), float(entry.tol or DEFAULT_TOL)
     if n_points * refine > MAX_SEGMENT_MODEL_POINTS:
         raise RunFailure("segment", InvalidInputError(
@@ -168,7 +170,8 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
                                                              reference=REFERENCE_PRESSURE))
         if options.keep_profiles:   # at the data's readings, as the profile is
             profile_envelopes[:, chunk] = np.moveaxis(coarse_points(batch.envelope, refine), 1, 0)
-            profile_pressures[:, chunk] = np.moveaxis(coarse_points(batch.pressure, refine), 1, 0)
+            # the pressure on each reading's interval (its mean there): the load kept, not the tops' peaks
+            profile_pressures[:, chunk] = np.moveaxis(reading_means(batch.pressure, refine), 1, 0)
         if first <= example_segment < first + count:
             example = example_table(run["run_id"], segments, example_segment, moduli, batch, example_segment - first,
                                     model[example_segment - first], model_dx)
@@ -178,11 +181,12 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
             run, "line", seg_index, None, moduli[mod_index], segments.starts[seg_index], segments.length,
             mpd_per_segment[seg_index], heights.std(axis=1)[seg_index - first],
             {key: values.ravel() for key, values in batch.measures().items()}, batch.residual.ravel(),
-            batch.iterations.ravel(), batch.converged.ravel(), shares[seg_index]))
+            batch.iterations.ravel(), batch.converged.ravel(), shares[seg_index], flat[seg_index]))
         band_frames.append(band_frame(run["run_id"], "line", seg_index, None, moduli[mod_index], bands, frequency,
-                                      texture.levels[seg_index], enveloped, pressure, shares[seg_index]))
+                                      texture.levels[seg_index], enveloped, pressure, shares[seg_index],
+                                      flat[seg_index]))
 
-    measured = int((~too_few_readings(shares)).sum())   # the segments with a level: what a run mean averages
+    measured = int((~too_few_readings(shares) & ~flat).sum())   # the segments with a level: what a run mean averages
     statement, sampling_dx, resolved_to = run_stage("spectra", lambda: run_statement(
         raw.dx, dx, conditioned.length * measured / n_segments, options.segment_length, max(measured, 1), moduli,
         options.mean_pressure,

@@ -27,7 +27,7 @@ from roadtex.archive.store import file_sha256, write_atomically
 #: The folder of the output folder that keeps the plan.
 PLAN_FOLDER = "plan"
 #: The pilot's error rule (roadtex.budget.estimate): a kept pilot of another rule is made again.
-PILOT_RULE = 2
+PILOT_RULE = 3
 #: The options a pilot's answer depends on (the others change what runs compute, not the pilot).
 PILOT_OPTIONS = ("youngs_moduli", "mean_pressure", "poisson", "segment_length", "dx", "tol", "refine",
                  "interpolant", "error_budget_db", "spike_alpha", "max_iterations", "band_kind", "band_method",

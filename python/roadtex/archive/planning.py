@@ -171,7 +171,10 @@ def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOpt
                     budget_db=options.error_budget_db, forced_dx=options.dx, forced_tol=options.tol,
                     forced_refine=options.refine, poisson=options.poisson, band_kind=options.band_kind,
                     band_method=options.band_method, spike_alpha=options.spike_alpha,
-                    max_iterations=options.max_iterations, threads=threads, interpolant=options.interpolant)
+                    max_iterations=options.max_iterations, threads=threads, interpolant=options.interpolant,
+                    # runs of the group it never tried are spoken for too: their extremes are not in the sample
+                    # (the runs it could not read fail on their own; other samplings have their own pilots)
+                    sampled=len(read) + len(unread) < len(members))
         except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
             failed[label] = f"{type(exc).__name__}: {exc}"   # recorded (parameters.json) and warned
             continue

@@ -204,7 +204,7 @@ PROFILE_COLUMNS: Columns = {
     "position": (pl.Float64(), "m"),
     "height": (pl.Float64(), "m"),                # conditioned road profile
     "envelope": (pl.Float64(), "m"),              # stitched enveloped profile
-    "pressure": (pl.Float64(), "Pa"),             # stitched contact pressure
+    "pressure": (pl.Float64(), "Pa"),             # stitched contact pressure (the mean over each reading's interval)
 }
 EXAMPLE_COLUMNS: Columns = {
     "run_id": (pl.String(), None),
@@ -226,7 +226,7 @@ SURFACE_EXAMPLE_COLUMNS: Columns = {
     "y": (pl.Float64(), "m"),                     # across the surface
     "height": (pl.Float64(), "m"),                # the tile as solved (its plane removed)
     "envelope": (pl.Float64(), "m"),              # enveloped surface (areal model)
-    "pressure": (pl.Float64(), "Pa"),             # contact pressure (areal model)
+    "pressure": (pl.Float64(), "Pa"),             # contact pressure (areal model; the mean over each reading's cell)
 }
 VON_MEIER_COLUMNS: Columns = {
     "run_id": (pl.String(), None),

@@ -61,10 +61,11 @@ from roadtex.budget.noise import in_budget
 from roadtex.budget.study import DEFAULT_TOLERANCES
 from roadtex.errors import ErrorBudgetWarning, InvalidInputError, RunFailure
 from roadtex.models.contact import contact_many
-from roadtex.models.grid import coarse_points, refine_periodic, refine_periodic_surface
+from roadtex.models.grid import coarse_points, reading_means, refine_periodic, refine_periodic_surface
 from roadtex.models.results import contact_measures
 from roadtex.models.surface import contact_surface_many
 from roadtex.profiles.conditioning import CleaningSummary, outlier_mask
+from roadtex.profiles.coverage import flat_segments, height_scale
 from roadtex.profiles.mpd import mpd as mean_profile_depth
 from roadtex.profiles.plausibility import implausible_across, judged_once
 from roadtex.profiles.trend import remove_lines
@@ -207,7 +208,7 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
     for first in range(0, n_tiles, chunk):
         part = np.arange(first, min(first + chunk, n_tiles))
         frames = solve_chunk(run, options, tol, tiles, part, lines, rows, moduli, bands, frequency, line_mpd,
-                             starts, threads, refine, coverage)
+                             starts, threads, refine, coverage, height_scale(surface.heights))
         for table in ("bands", "segments"):
             for frame in frames[table]:
                 by_model[table].setdefault(frame["model"][0], []).append(frame)
@@ -233,17 +234,20 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
                 lines: list[Any],
                 rows: np.ndarray, moduli: np.ndarray, bands: pl.DataFrame, frequency: np.ndarray,
                 line_mpd: np.ndarray, starts: np.ndarray, threads: int | None, refine: int,
-                coverage: tuple[np.ndarray, np.ndarray]) -> dict[str, Any]:
+                coverage: tuple[np.ndarray, np.ndarray], scale: float) -> dict[str, Any]:
     """The tiles ``part`` of a surface run solved with both models at ``tol`` on the model grid
     ``refine`` times finer each way: their band and segment rows (tile numbers as in the whole
-    run; ``coverage``: :func:`tile_coverage`), and the report's example when the middle tile is
-    among them."""
+    run; ``coverage``: :func:`tile_coverage`; a row whose analysed line is flat to within rounding
+    of ``scale``, m, has no level: :func:`roadtex.profiles.coverage.flat_segments`), and the
+    report's example when the middle tile is among them."""
     dx, dy = tiles.dx, tiles.dy
     n_x = tiles.heights.shape[2]
     band_frames: list[pl.DataFrame] = []
     segment_frames: list[pl.DataFrame] = []
     heights, line_heights, frame_shift = tile_lines(tiles, part, lines, rows)
     n_tiles = part.size
+    # (tiles, lines): an analysed line on a straight line (a plate, a held reading) has no texture
+    flat_rows = flat_segments(line_heights, scale)
     # the model grid (k = 1: the data's own arrays, unchanged)
     fine_heights = refine_periodic_surface(heights, refine, refine, options.interpolant)  # type: ignore[arg-type]
     fine_lines = refine_periodic(line_heights, refine, options.interpolant)  # type: ignore[arg-type]
@@ -286,7 +290,8 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
         missing = line_missing[tile_i, line_k] if model == "line" else tile_missing[tile_i]
         # the sampling calibration is of line runs' levels (roadtex.budget.sampling): none stated here
         band_frames.append(band_frame(run["run_id"], model, part[tile_i], rows[line_k], moduli[mod_i], bands, frequency,
-                                      np.broadcast_to(texture_levels, env_levels.shape), env_levels, p_levels, missing))
+                                      np.broadcast_to(texture_levels, env_levels.shape), env_levels, p_levels, missing,
+                                      flat_rows[tile_i, line_k]))
 
     line_mpd = line_mpd[part]
     segment_frames = []
@@ -309,13 +314,15 @@ def solve_chunk(run: dict[str, Any], options: ProcessingOptions, tol: float, til
                                         line_heights.std(axis=-1)[tile_i, line_i],
                                         {k: v[tile_i, line_i, mod_i] for k, v in line_measures.items()},
                                         line_res[tile_i, line_i, mod_i], line_iter[tile_i, line_i, mod_i],
-                                        line_conv[tile_i, line_i, mod_i], line_missing[tile_i, line_i]))
+                                        line_conv[tile_i, line_i, mod_i], line_missing[tile_i, line_i],
+                                        flat_rows[tile_i, line_i]))
     tile_i, mod_i = (a.ravel() for a in np.meshgrid(np.arange(n_tiles), np.arange(moduli.size), indexing="ij"))
     segment_frames.append(segment_frame(run, "areal", part[tile_i], None, moduli[mod_i], starts[part[tile_i]], tiles.length,
                                         areal_mpd[tile_i], heights.reshape(n_tiles, -1).std(axis=1)[tile_i],
                                         {k: v[tile_i, mod_i] for k, v in areal_measures.items()},
                                         areal.residual[tile_i, mod_i], areal.iterations[tile_i, mod_i],
-                                        areal.converged[tile_i, mod_i], tile_missing[tile_i]))
+                                        areal.converged[tile_i, mod_i], tile_missing[tile_i],
+                                        flat_rows[tile_i].all(axis=-1)))
     middle = len(tiles) // 2
     example = (surface_example(run["run_id"], tiles, middle, areal, int(np.flatnonzero(part == middle)[0]), moduli,
                                refine)
@@ -416,7 +423,8 @@ def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, mo
                     refine: int = 1) -> pl.DataFrame:
     """Tile ``tile``'s heights, enveloped surface and pressure map (row ``row`` of ``areal``) at
     the middle modulus (sorted), in long form (SURFACE_EXAMPLE_SCHEMA): what the report draws
-    without re-solving. On a model grid ``refine`` times finer, its values at the data's readings."""
+    without re-solving. On a model grid ``refine`` times finer, the envelope at the data's readings
+    and the pressure over each reading's cell (its mean there: the load kept)."""
     k = int(np.argsort(moduli)[moduli.size // 2])
     _, n_y, n_x = tiles.heights.shape
     x = tiles.x0 + tiles.dx * (tiles.column_starts[tile] + np.arange(n_x))
@@ -427,5 +435,5 @@ def surface_example(run_id: str, tiles: Any, tile: int, areal: Any, row: int, mo
         "dx": np.full(count, tiles.dx), "dy": np.full(count, tiles.dy),
         "x": np.tile(x, n_y), "y": np.repeat(y, n_x), "height": tiles.heights[tile].ravel(),
         "envelope": coarse_points(coarse_points(areal.envelope[row, k], refine).T, refine).T.ravel(),
-        "pressure": coarse_points(coarse_points(areal.pressure[row, k], refine).T, refine).T.ravel(),
+        "pressure": reading_means(reading_means(areal.pressure[row, k], refine).T, refine).T.ravel(),
     }, schema=SURFACE_EXAMPLE_SCHEMA)

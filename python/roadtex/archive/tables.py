@@ -8,7 +8,7 @@ import numpy as np
 import polars as pl
 
 from roadtex.archive.schemas import METADATA_COLUMNS, RUN_BAND_SCHEMA, SAMPLING_BAND_COLUMNS, SEGMENT_SCHEMA
-from roadtex.profiles.coverage import no_level_reason, too_few_readings
+from roadtex.profiles.coverage import flat_reason, no_level_reason, too_few_readings
 from roadtex.spectra.levels import band_levels
 
 #: The level columns of bands.parquet: NaN (a band without a DFT line) and -inf (a band without power)
@@ -16,24 +16,29 @@ from roadtex.spectra.levels import band_levels
 LEVEL_COLUMNS = ("texture_level", "enveloped_level", "pressure_level")
 
 
-def no_level(missing: np.ndarray, what: str) -> list[str | None]:
-    """Per row, why it has no level (:func:`roadtex.profiles.coverage.no_level_reason`), or None."""
+def no_level(missing: np.ndarray, what: str, flat: np.ndarray | None = None) -> list[str | None]:
+    """Per row, why it has no level, or None: too few readings
+    (:func:`roadtex.profiles.coverage.no_level_reason`) or, ``flat`` True, no texture
+    (:func:`roadtex.profiles.coverage.flat_reason`)."""
     shares = np.asarray(missing, dtype=np.float64)
-    return [no_level_reason(float(share), what) if bad else None
-            for share, bad in zip(shares, too_few_readings(shares))]
+    flats = np.zeros(shares.shape, dtype=bool) if flat is None else np.broadcast_to(np.asarray(flat, dtype=bool),
+                                                                                    shares.shape)
+    return [no_level_reason(float(share), what) if bad else flat_reason(what) if level_less else None
+            for share, bad, level_less in zip(shares, too_few_readings(shares), flats)]
 
 
 def segment_frame(run: dict[str, Any], model: str, segment: np.ndarray, line: np.ndarray | None,
                   modulus: np.ndarray, start: np.ndarray, length: float, mpd: np.ndarray, rms: np.ndarray,
                   measures: dict[str, np.ndarray], residual: np.ndarray, iterations: np.ndarray,
-                  converged: np.ndarray, missing: np.ndarray) -> pl.DataFrame:
+                  converged: np.ndarray, missing: np.ndarray, flat: np.ndarray | None = None) -> pl.DataFrame:
     """Rows of segments.parquet (SEGMENT_SCHEMA), one per (segment, line, modulus) given: the model
     ("line" or "areal"), where each segment starts (m) and its length (m), its MPD (m; NaN: none),
     rms height (m), contact measures and solver outcome, and the share of its samples that had no
-    reading (``missing``): over :data:`~roadtex.profiles.coverage.MAX_MISSING_SHARE` the segment has
-    no level, its contact measures are null and ``no_level_reason`` says why."""
+    reading (``missing``): over :data:`~roadtex.profiles.coverage.MAX_MISSING_SHARE`, or ``flat``
+    (per row: no texture, :func:`roadtex.profiles.coverage.flat_segments`), the segment has no level,
+    its contact measures are null and ``no_level_reason`` says why."""
     count = segment.size
-    reasons = no_level(missing, "tile" if model == "areal" else "segment")
+    reasons = no_level(missing, "tile" if model == "areal" else "segment", flat)
     measured = np.array([r is None for r in reasons], dtype=bool)
     measures = {k: np.where(measured, np.asarray(v, dtype=np.float64), np.nan) for k, v in measures.items()}
     columns: dict[str, Any] = {
@@ -51,15 +56,16 @@ def segment_frame(run: dict[str, Any], model: str, segment: np.ndarray, line: np
 
 def band_frame(run_id: str, model: str, segment: np.ndarray, line: np.ndarray | None, modulus: np.ndarray,
                bands: pl.DataFrame, frequency: np.ndarray, texture: np.ndarray, enveloped: np.ndarray,
-               pressure: np.ndarray, missing: np.ndarray) -> pl.DataFrame:
+               pressure: np.ndarray, missing: np.ndarray, flat: np.ndarray | None = None) -> pl.DataFrame:
     """Rows of bands.parquet (RUN_BAND_SCHEMA), one per (row given, band of ``bands``): ``segment``,
     ``line`` and ``modulus`` per row; ``frequency`` (Hz, NaN without a speed) per band; the texture,
     enveloped and pressure levels (dB) as (rows, bands). A row whose segment has too few readings
-    (``missing``, the share of its samples without one, per row) has no level: its levels are null,
-    not reported, and ``reason`` says why. The sampling statement's columns are null here (a line
-    run's are joined by :func:`roadtex.archive.compute.with_sampling`)."""
+    (``missing``, the share of its samples without one, per row), or that is flat (``flat``, per row:
+    no texture), has no level: its levels are null, not reported, and ``reason`` says why. The
+    sampling statement's columns are null here (a line run's are joined by
+    :func:`roadtex.archive.compute.with_sampling`)."""
     rows, n_bands = segment.size, bands.height
-    reasons = no_level(missing, "tile" if model == "areal" else "segment")
+    reasons = no_level(missing, "tile" if model == "areal" else "segment", flat)
     measured = np.repeat(np.array([r is None for r in reasons], dtype=bool), n_bands)
     reported = np.tile(bands["reported"].to_numpy(), rows) & measured
     reason = np.where(measured, np.tile(bands["reason"].to_numpy(), rows), np.repeat(np.array(reasons, dtype=object),

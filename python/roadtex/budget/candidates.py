@@ -85,7 +85,7 @@ def candidate_rows(pilot: Pilot, dx: float, tols: Sequence[float], refine: int =
             solved, ok, seconds, work = (pilot_segment_levels(pilot, tol, refine) if is_file_dx
                                          else solve_levels(pilot, heights, used, tol, refine))
             seconds_per_metre, work_per_metre = seconds / metres, work / metres
-        errors = run_extreme(solved, pilot.levels, pilot.run_rows, PILOT_SPREAD_FACTOR) + pilot.reference_error
+        errors = run_extreme(solved, pilot.levels, pilot.run_rows, PILOT_SPREAD_FACTOR, pilot.sampled) + pilot.reference_error
         rows += study_rows(pilot, used, points, refine, tol, is_rung and refine == pilot.refine, texture,
                            np.where(ok, errors, np.inf), (seconds_per_metre, work_per_metre))
     return rows

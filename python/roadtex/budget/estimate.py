@@ -79,7 +79,8 @@ def difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(np.isneginf(a) & np.isneginf(b), 0.0, np.where(np.isnan(d), np.inf, d))
 
 
-def run_extreme(levels: np.ndarray, reference: np.ndarray, run_rows: int, factor: float = 1.0) -> np.ndarray:
+def run_extreme(levels: np.ndarray, reference: np.ndarray, run_rows: int, factor: float = 1.0,
+                sampled: bool = False) -> np.ndarray:
     """Estimate (2, bands) of the largest |levels - reference| among ``run_rows`` rows from the pilot's
     rows (levels and reference: (2, pilot rows, bands), dB): per level kind and band, the larger of
     the pilot's largest difference and ``factor`` x (|mean| + sqrt(2 ln run_rows) x standard
@@ -88,14 +89,15 @@ def run_extreme(levels: np.ndarray, reference: np.ndarray, run_rows: int, factor
     extreme of the scatter added to the bias, not of the magnitudes (which counted the bias
     sqrt(2 ln n) = 3 to 4.5 times). When the pilot's rows are the run's (a run of at most
     :data:`DEFAULT_PILOT_SEGMENTS` segments) nothing is extrapolated: the largest difference is the
-    run's. Inf where only one of the two is -inf (a band without power at one setting), 0 where
-    both are.
+    run's, unless ``sampled``: the rows are a sample of runs the pilot did not solve (a job's group
+    of more runs than the pilot read), whose own extremes the sample's largest does not bound. Inf
+    where only one of the two is -inf (a band without power at one setting), 0 where both are.
     """
     with np.errstate(invalid="ignore"):
         signed = np.where(np.isneginf(levels) & np.isneginf(reference), 0.0, levels - reference)
     signed = np.where(np.isnan(signed), np.inf, signed)
     largest = np.abs(signed).max(axis=1)
-    if signed.shape[1] >= run_rows:
+    if signed.shape[1] >= run_rows and not sampled:
         return largest
     with np.errstate(invalid="ignore"):
         gaussian = np.abs(signed.mean(axis=1)) + np.sqrt(2.0 * np.log(max(run_rows, 2))) * signed.std(axis=1)
@@ -163,7 +165,7 @@ def reference_converged(differences: list[np.ndarray], budget_rows: np.ndarray, 
 def stated_errors(sequence: dict[int, np.ndarray], candidates: Sequence[int], budget_rows: np.ndarray,
                   run_rows: int, budget: float = DEFAULT_ERROR_BUDGET_DB,
                   max_points: float = np.inf, spread_factor: float = PILOT_SPREAD_FACTOR,
-                  ) -> tuple[dict[int, np.ndarray], np.ndarray, np.ndarray]:
+                  sampled: bool = False) -> tuple[dict[int, np.ndarray], np.ndarray, np.ndarray]:
     """The pilot's rule replayed on levels already solved (benches/pilot_calibration.py and the tests):
     ``sequence`` k -> levels (2, pilot rows, bands) at the reference tol on k = 1, 2, 4, ... and on the
     ``candidates``. Returns k -> stated error (bands; worst of the two kinds) for the candidates up to
@@ -171,12 +173,12 @@ def stated_errors(sequence: dict[int, np.ndarray], candidates: Sequence[int], bu
     differences: list[np.ndarray] = []
     k = 1
     while 2 * k in sequence and 2 * k * sequence[1].shape[-1] <= max_points:
-        differences.append(run_extreme(sequence[2 * k], sequence[k], run_rows))
+        differences.append(run_extreme(sequence[2 * k], sequence[k], run_rows, sampled=sampled))
         k *= 2
         if reference_converged(differences, budget_rows, budget):
             break
     error, notes = richardson(differences) if differences else (np.zeros(sequence[1][:, 0].shape), np.full(
         sequence[1][:, 0].shape, MEASURED))
-    stated = {c: (run_extreme(sequence[c], sequence[k], run_rows, spread_factor) + error).max(axis=0)
+    stated = {c: (run_extreme(sequence[c], sequence[k], run_rows, spread_factor, sampled) + error).max(axis=0)
               for c in candidates if c <= k}
     return stated, error, notes

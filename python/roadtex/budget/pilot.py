@@ -141,7 +141,7 @@ def tolerance_effect(pilot: Pilot, tol: float, k: int | None = None) -> tuple[fl
         k = pilot.refine if pilot.refine in tolerance_rungs(pilot) else max(tolerance_rungs(pilot))
     levels, ok, _, _ = rung_levels(pilot, tol, k)   # the candidate (file dx, k, tol)'s solve if made and on its grid
     budget = pilot.bands["in_budget"].to_numpy() & ok
-    gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR)[:, budget]
+    gains = run_extreme(levels, pilot.sequence[k][0], pilot.run_rows, PILOT_SPREAD_FACTOR, pilot.sampled)[:, budget]
     return (2.0 * float(gains.max()) + 1e-3 if gains.size else float(np.inf)), pilot.rung_dx(k)
 
 
@@ -187,7 +187,7 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                    threads: int | None = None, include_reference_error: bool = True,
                    refine_candidates: Sequence[int] | None = None, interpolants: bool = True,
                    band_method: str = "dft", group_scale: float = 1.0,
-                   interpolant: str = DEFAULT_INTERPOLANT) -> BudgetChoice:
+                   interpolant: str = DEFAULT_INTERPOLANT, sampled: bool = False) -> BudgetChoice:
     """The cheapest (dx, k, tol) whose estimated level errors stay within ``budget_db`` in every budget band.
 
     Args:
@@ -217,6 +217,9 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
         interpolant: the job's road between readings (``--interpolant``,
             :data:`roadtex.models.grid.INTERPOLANTS`): every pilot solve joins the readings so, so
             that the errors stated are those of the levels the job computes.
+        sampled: ``profile`` is a sample of a group of more runs, which the choice speaks for too:
+            the pilot's rows are then always extrapolated, even when they are all of its runs'
+            (short runs), since the other runs' largest errors are not among them.
 
     Returns:
         A :class:`BudgetChoice`.
@@ -236,7 +239,8 @@ def choose_setting(profile: Profile | Sequence[Profile], *, youngs_moduli: float
                         segment_length=segment_length, n_segments=n_segments, band_kind=band_kind,
                         spike_alpha=spike_alpha, max_iterations=max_iterations, threads=threads,
                         include_reference_error=include_reference_error, budget_db=budget, interpolants=interpolants,
-                        band_method=band_method, group_scale=group_scale, interpolant=interpolant)
+                        band_method=band_method, group_scale=group_scale, interpolant=interpolant,
+                        sampled=sampled)
     dxs = [forced_dx_f] if forced_dx_f is not None else dxs_given
     refines = [forced_refine_k] if forced_refine_k is not None else refines_given
     if forced_dx_f is not None and refines is None:   # a forced interval refined up to the reference's model grid

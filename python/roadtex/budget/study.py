@@ -90,7 +90,7 @@ from roadtex.models.grid import (
     resample_periodic,
 )
 from roadtex.profiles.conditioning import clean
-from roadtex.profiles.coverage import MAX_MISSING_SHARE, missing_shares, too_few_readings
+from roadtex.profiles.coverage import MAX_MISSING_SHARE, flat_segments, height_scale, missing_shares, too_few_readings
 from roadtex.profiles.profile import Profile
 from roadtex.spectra.bands import REFERENCE_PRESSURE, BandKind, check_band_kind
 from roadtex.spectra.levels import Method, band_levels
@@ -189,6 +189,9 @@ class Pilot:
     # points a segment of the reference's k = 1 rung (:func:`ladder_points`; rung k has k times as
     # many): ``points`` where that is FFT-friendly, else the next 5-smooth count (0: ``points``)
     ladder: int = 0
+    # the pilot's runs are a sample of a larger group (the job's): its rows never stand for all rows
+    # (:func:`roadtex.budget.estimate.run_extreme`)
+    sampled: bool = False
 
     def rung_points(self, k: int) -> int:
         """Points a segment of the reference's rung k."""
@@ -240,11 +243,12 @@ def segments_of(cleaned: list[Profile], dx: float | None,
                 segment_length: float) -> tuple[np.ndarray, list[tuple[int, float]], float]:
     """Every segment with a level of every cleaned profile, finished at ``dx`` (None: the file's):
     heights, (profile, start), dx. A segment mostly filled (drop-outs: more than
-    :data:`~roadtex.profiles.coverage.MAX_MISSING_SHARE` of its samples without a reading) has no
-    level in the job, so the pilot never measures its errors on one.
+    :data:`~roadtex.profiles.coverage.MAX_MISSING_SHARE` of its samples without a reading) or flat
+    (no texture: :func:`~roadtex.profiles.coverage.flat_segments`) has no level in the job, so the
+    pilot never measures its errors on one.
 
     Raises:
-        InvalidInputError: no segment of any profile has enough readings.
+        InvalidInputError: no segment of any profile has a level.
     """
     heights, starts, used = [], [], 0.0
     for index, profile in enumerate(cleaned):
@@ -252,7 +256,7 @@ def segments_of(cleaned: list[Profile], dx: float | None,
         resampled = profile.resample(profile.dx if dx is None else dx)
         segments = resampled.fill_dropouts().detrend("linear").segments(segment_length)
         shares = missing_shares(np.isnan(resampled.heights), segments.start_indices, segments.heights.shape[1])
-        keep = ~too_few_readings(shares)
+        keep = ~too_few_readings(shares) & ~flat_segments(segments.heights, height_scale(resampled.heights))
         heights.append(segments.heights[keep])
         starts.extend((index, float(s)) for s in segments.starts[keep])
         used = segments.dx
@@ -260,8 +264,9 @@ def segments_of(cleaned: list[Profile], dx: float | None,
     if len(lengths) != 1:
         raise InvalidInputError("the profiles of a group give segments of different point counts")
     if not starts:
-        raise InvalidInputError(f"no segment of {segment_length:g} m of the pilot's runs has enough readings: each "
-                                f"has more than {MAX_MISSING_SHARE:.0%} of its samples missing (drop-outs)")
+        raise InvalidInputError(f"no segment of {segment_length:g} m of the pilot's runs has a level: each has more "
+                                f"than {MAX_MISSING_SHARE:.0%} of its samples missing (drop-outs) or its readings "
+                                "on a straight line (no texture)")
     return np.vstack(heights), starts, used
 
 
@@ -351,11 +356,12 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                 threads: int | None, include_reference_error: bool = True,
                 budget_db: float = DEFAULT_ERROR_BUDGET_DB, max_refine: int = MAX_REFINE,
                 interpolants: bool = True, band_method: str = "dft", group_scale: float = 1.0,
-                interpolant: str = DEFAULT_INTERPOLANT) -> Pilot:
+                interpolant: str = DEFAULT_INTERPOLANT, sampled: bool = False) -> Pilot:
     """The reference side of a study (module docstring, steps 1, 2 and 5): ``max_refine`` caps K;
     ``interpolant``: the job's road between readings (every pilot solve joins the readings so);
     ``group_scale``: how many times the pilot's runs' rows the group it speaks for holds (its
-    errors are extrapolated to the largest of that many rows);
+    errors are extrapolated to the largest of that many rows); ``sampled``: the runs are a sample
+    of a group of more runs (:func:`~roadtex.budget.estimate.run_extreme`);
     ``interpolants`` False skips step 5; ``include_reference_error`` False solves the data's own
     grid only (K = 1) and states no reference error; ``band_method`` ("dft" or "filter") is how
     the job computes its band levels, and so every level of the pilot."""
@@ -386,7 +392,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
                   heights.shape[1], bands, [starts[i] for i in chosen],
                   int(np.ceil(heights.shape[0] * moduli.size * max(float(group_scale), 1.0))),
                   texture.levels[:, columns], starts, np.empty(0), np.empty(0), 0.0, 0.0, band_method=method,
-                  interpolant=road,
+                  interpolant=road, sampled=bool(sampled),
                   # without a reference error the reference is the data's own grid (k = 1), whatever N
                   ladder=ladder_points(heights.shape[1]) if include_reference_error else heights.shape[1])
     pilot_heights = heights[chosen]
@@ -419,7 +425,7 @@ def build_pilot(profile: Profile | Sequence[Profile], *, youngs_moduli: float | 
         if k > 1 and pilot.rung_points(2 * k) > REFERENCE_MAX_POINTS:
             break
         finer = solve(2 * k)
-        differences.append(run_extreme(finer, finest, pilot.run_rows))
+        differences.append(run_extreme(finer, finest, pilot.run_rows, sampled=pilot.sampled))
         finest, k = finer, 2 * k
         if reference_converged(differences, budget_rows, budget):
             break

@@ -185,6 +185,24 @@ def coarse_points(fine: np.ndarray, refine: int) -> np.ndarray:
     return fine if k == 1 else np.ascontiguousarray(fine[..., ::k])
 
 
+def reading_means(fine: np.ndarray, refine: int) -> np.ndarray:
+    """A periodic model field's (..., N k) mean over each reading's cell (..., N): the k model points
+    nearest reading i (model point i k), the two at the cell's edges weighted 1/2 when k is even.
+    For a pressure (Pa) this is the force on the reading's interval over its length: the cells tile
+    the period, so the mean pressure (the load) is kept exactly, while the value at the readings
+    (:func:`coarse_points`) samples the rubber where it rests on the road's tops, above the mean."""
+    k = check_refine(refine)
+    if k == 1:
+        return fine
+    values = np.asarray(fine, dtype=np.float64)
+    half = k // 2
+    total = np.zeros(values.shape[:-1] + (values.shape[-1] // k,))
+    for offset in range(-half, half + 1):
+        weight = 0.5 if k % 2 == 0 and abs(offset) == half else 1.0
+        total += weight * np.roll(values, -offset, axis=-1)[..., ::k]
+    return total / k
+
+
 def prolong_pressure(coarse: np.ndarray, factor: int) -> np.ndarray:
     """A periodic pressure field (..., N) on the grid ``factor`` times finer (..., N factor), linear
     between the coarse points (coarse point i on fine point i factor): p >= 0 and the mean kept

@@ -50,7 +50,10 @@ band is reported only when 12 centre wavelengths are left after it. These are th
 public implementation of that edition; the standard's text itself was not at hand, so both are
 module constants and ``band_table`` arguments. Levels are computed for every band that holds at
 least one DFT line whether reported or not (filter on ``reported``); a band that holds no line gets
-NaN (with either method), and a band whose lines carry no power gets -inf dB.
+NaN (with either method), and a band whose lines carry no power gets -inf dB. So does a band whose
+power lies more than 240 dB below the signal's own mean square (its mean included:
+:data:`ROUNDING_SHARE`): double precision cannot carry such a band, so what it holds is rounding
+(a constant signal's bands, a uniform pressure's), not a level.
 """
 
 
@@ -126,6 +129,19 @@ class BandLevels:
             pl.Series("level_db", self.levels.reshape(-1)),
         ).select("signal", *self.bands.columns, "mean_square", "level_db")
         return frame.filter(pl.col("reported")) if reported_only else frame
+
+
+#: A band's rms at most this share of the signal's own rms (its mean included) is rounding, not
+#: signal (-inf dB): the transforms carry about 1e-16 of the signal's magnitude, and no band of a
+#: measured texture or solved pressure lies 240 dB below its signal.
+ROUNDING_SHARE = 1e-12
+
+
+def without_rounding(mean_square: np.ndarray, signals: np.ndarray) -> np.ndarray:
+    """Band mean squares (rows, bands) with those of rounding (:data:`ROUNDING_SHARE` of each row's
+    own mean square, ``signals`` as given) set to 0 (-inf dB); NaN (no line) kept."""
+    floor = ROUNDING_SHARE**2 * np.mean(signals * signals, axis=1, keepdims=True)
+    return np.where(mean_square <= floor, 0.0, mean_square)
 
 
 def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: float | None = None, *, kind: BandKind = "third_octave",
@@ -223,6 +239,7 @@ def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: fl
             sums[:, last] = power[:, first_line[last]:end_line[last]].sum(axis=1)
         mean_square[start:start + rows_per_block] = sums
 
+    mean_square = without_rounding(mean_square, signals)
     mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
         levels = 10.0 * np.log10(mean_square / reference**2)
@@ -248,6 +265,7 @@ def _filter_levels(signals: np.ndarray, dx: float, kind: BandKind, reference: fl
         table = _settled_table(table, measured, kind)
     # A band that holds no DFT line of the segment has no level, as with the DFT method: the filter
     # would only return its skirts' share of the neighbouring bands.
+    mean_square = without_rounding(mean_square, signals)
     mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
         levels = 10.0 * np.log10(mean_square / reference**2)
