@@ -16,6 +16,7 @@ from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
 from roadtex.profiles.readers.npy import read_npy
 from roadtex.profiles.readers.parquet import read_parquet
+from roadtex.profiles.readers.screening import refuse_restarts
 from roadtex.profiles.readers.text import decode_text, nominal_dx, refuse_binary, sorted_samples
 
 #: A dx given for a file with distances that differs from their interval by more than this share
@@ -91,7 +92,8 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
     ``sort`` (default True: out-of-order rows are sorted by position; False refuses them).
 
-    Rows are sorted by position; exact duplicates that agree are merged.
+    Rows are sorted by position; exact duplicates that agree are merged. Distances that go back
+    by a large share of the run (a second run appended, restarting at 0) are refused.
 
     Warns:
         ImplausibleTextureWarning: heights or an interval that cannot be a road texture in metres
@@ -157,6 +159,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     if biggest > MAX_MAGNITUDE:   # the file's fault, not an argument's: a ProfileFormatError naming it
         raise ProfileFormatError(f"{name}: a height or position of {biggest:.3g} m is beyond {MAX_MAGNITUDE:.0g} m: "
                                  "not a road profile (a corrupt file, or the wrong unit?)")
+    if not np.isnan(positions).any():
+        refuse_restarts(positions, name)
     if options.get("sort", True) is False and np.any(np.diff(positions) <= 0):
         raise ProfileFormatError(f"{name}: positions are not strictly increasing (pass sort=True to sort them)")
     positions, heights, note = sorted_samples(positions, heights, name)
