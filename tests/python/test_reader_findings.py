@@ -10,10 +10,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import polars as pl
 import pytest
 
 import roadtex
-from roadtex.errors import ImplausibleTextureWarning, ProfileFormatError
+from roadtex.errors import ImplausibleTextureWarning, InvalidInputError, ProfileFormatError
 
 DX_MM = 0.5
 
@@ -67,3 +68,67 @@ def test_a_file_written_in_reverse_and_rows_swapped_locally_are_still_sorted(tmp
         np.testing.assert_allclose(profile.positions, x * 1e-3, atol=1e-12)
         np.testing.assert_allclose(profile.heights, z * 1e-3, atol=1e-12)
         assert "sorted" in profile.history[-1]
+
+
+# 2. Drop-out codes written as numbers
+
+def coded_file(tmp_path: Path, code: str, n: int = 1600) -> tuple[Path, np.ndarray, np.ndarray]:
+    """A µm file with 12 stretches of 3 to 20 readings written as ``code``: the path, the true
+    heights (µm) and the mask of coded readings."""
+    z_um = np.round(texture(n) * 1e3, 1)
+    rng = np.random.default_rng(7)
+    coded = np.zeros(n, dtype=bool)
+    for start in rng.choice(np.arange(20, n - 40), 12, replace=False):
+        coded[start:start + int(rng.integers(3, 21))] = True
+    cells = [code if c else f"{v:.1f}" for v, c in zip(z_um, coded)]
+    path = tmp_path / f"coded{code}.csv"
+    path.write_text("distance [mm];height [µm]\n" + rows(np.arange(n) * DX_MM, cells, ";"))
+    return path, z_um, coded
+
+
+@pytest.mark.parametrize("code", ["-9999", "-999", "9999", "-99999"])
+def test_common_dropout_codes_in_stretches_are_drop_outs_with_a_note(tmp_path: Path, code: str) -> None:
+    path, z_um, coded = coded_file(tmp_path, code)
+    profile = read(path)
+    assert np.array_equal(np.isnan(profile.heights), coded)
+    np.testing.assert_allclose(profile.heights[~coded], z_um[~coded] * 1e-6, atol=1e-12)
+    assert any(f"{coded.sum()} readings of {code} " in line and "drop-out code" in line for line in profile.history)
+
+
+def test_a_dropout_value_given_makes_those_readings_drop_outs(tmp_path: Path) -> None:
+    path, z_um, coded = coded_file(tmp_path, "-555.5")
+    assert not np.isnan(read(path).heights).any()   # not a common code: texture unless stated
+    profile = read(path, dropout_value=-555.5)
+    assert np.array_equal(np.isnan(profile.heights), coded)
+    assert any(f"{coded.sum()} readings equal to the dropout_value -555.5" in line for line in profile.history)
+    np.save(tmp_path / "h.npy", z_um * 1e-6)
+    with pytest.raises(InvalidInputError, match=r"h\.npy: dropout_value is for text files"):
+        roadtex.read_profile(tmp_path / "h.npy", dx=0.5e-3, dropout_value=-9999)
+
+
+def test_a_code_value_that_is_as_frequent_as_its_neighbours_stays_texture(tmp_path: Path) -> None:
+    """Integer µm heights: -999 is a reading like -998 and -1000, even twice in a row."""
+    n = 3000
+    z_um = np.round(texture(n, seed=9) * 1e3 / 3).astype(int) - 700   # heights around -999 often
+    z_um[[200, 201, 900, 901, 1500]] = -999
+    path = tmp_path / "integers.csv"
+    path.write_text("distance (mm),height (um)\n" + rows(np.arange(n) * DX_MM, z_um))
+    assert np.count_nonzero(z_um == -999) >= 5
+    profile = read(path)
+    assert not np.isnan(profile.heights).any()
+    np.testing.assert_allclose(profile.heights, z_um * 1e-6, atol=1e-12)
+
+
+def test_the_manifest_column_dropout_value_reaches_the_reader(tmp_path: Path) -> None:
+    road = roadtex.synthetic_pavement("dense_asphalt", 0.6, 0.5e-3, seed=2)
+    z = road.heights * 1e3
+    cells = [f"{v:.4f}" for v in z]
+    for i in (100, 101, 102, 700, 701, 702, 703):
+        cells[i] = "-123"
+    (tmp_path / "a.csv").write_text("distance (mm),height (mm)\n" + rows(road.positions * 1e3, cells))
+    pl.DataFrame({"path": ["a.csv"], "dropout_value": [-123.0]}).write_csv(tmp_path / "manifest.csv")
+    options = roadtex.ProcessingOptions(youngs_moduli=(2e6,), segment_length=0.25, error_budget_db=None)
+    summary = roadtex.process(tmp_path / "manifest.csv", tmp_path / "out", options, quiet=True)
+    assert summary.failed_on_record == 0
+    run = pl.read_parquet(tmp_path / "out" / "runs.parquet").row(0, named=True)
+    assert run["dropout_fraction"] == pytest.approx(7 / z.size, rel=0.05)

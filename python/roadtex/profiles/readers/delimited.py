@@ -10,6 +10,9 @@ from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
 from roadtex.profiles.readers.npy import stored_record
+from roadtex.profiles.readers.screening import (
+    dropout_codes,
+)
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
     DROPOUT_TOKENS,
@@ -294,7 +297,10 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
     check_units_given(names, {"height": (h_index, options.get("height_unit")),
                               "distance": (d_index, options.get("distance_unit"))})
-    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
+    raw_heights, codes_note = dropout_codes(table[:, h_index], options.get("dropout_value"))  # type: ignore[arg-type]
+    if codes_note:
+        history.append(codes_note)
+    heights = raw_heights * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
     if d_index is not None:
         if absent[:, d_index].any():
             row = int(row_numbers[np.flatnonzero(absent[:, d_index])[0]])

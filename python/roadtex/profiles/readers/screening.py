@@ -9,6 +9,58 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.conditioning import format_number
 
+#: Numbers instruments and exports write for a missing reading, in the file's height unit. A
+#: reading exactly equal to one is a drop-out when it cannot be texture (:func:`dropout_codes`).
+DROPOUT_CODES = (-9999.0, -999.0, 9999.0, -99999.0)
+#: A code is one when it is repeated at least this many times, ...
+CODE_COUNT = 3
+#: ... in stretches of at least this many consecutive readings (an isolated code is an outlier or
+#: a spike, which conditioning counts and removes as such), ...
+CODE_RUN = 2
+#: ... and this many times more often than any of the :data:`CODE_NEIGHBOURS` other values nearest
+#: to it: a texture reading that happens to equal a code is about as frequent as its neighbours.
+CODE_EXCESS = 5.0
+CODE_NEIGHBOURS = 10
+
+
+def longest_run(mask: np.ndarray) -> int:
+    """The length of the longest run of True in ``mask`` (0 when none)."""
+    if not mask.any():
+        return 0
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return int(np.max(np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)))
+
+
+def dropout_codes(heights: np.ndarray, given: float | None) -> tuple[np.ndarray, str]:
+    """``heights`` (in the file's height unit) with the readings that are a drop-out code set to
+    NaN, and the history note saying so ("" when none).
+
+    ``given`` (the ``dropout_value`` option, in the file's height unit) is the file's code, taken
+    as stated. Without it, the readings exactly equal to one of :data:`DROPOUT_CODES` are drop-outs
+    when the code cannot be texture: repeated (:data:`CODE_COUNT`), in stretches (:data:`CODE_RUN`)
+    and far more often than the values nearest to it (:data:`CODE_EXCESS`)."""
+    notes = []
+    if given is not None:
+        hits = heights == given
+        if hits.any():
+            heights = np.where(hits, np.nan, heights)
+        notes.append(f"{int(hits.sum())} readings equal to the dropout_value {format_number(given)} read as drop-outs")
+    for code in DROPOUT_CODES:
+        hits = heights == code
+        count = int(hits.sum())
+        if count < CODE_COUNT or longest_run(hits) < CODE_RUN:
+            continue
+        values, counts = np.unique(heights[~hits & np.isfinite(heights)], return_counts=True)
+        nearest = counts[np.argsort(np.abs(values - code), kind="stable")[:CODE_NEIGHBOURS]]
+        if nearest.size and count <= CODE_EXCESS * int(nearest.max()):
+            continue
+        heights = np.where(hits, np.nan, heights)
+        notes.append(f"{count} readings of {format_number(code)} (in the file's height unit) read as drop-outs: a "
+                     "drop-out code, repeated in stretches far more often than any value near it (give dropout_value "
+                     "to state a file's code)")
+    return heights, "; ".join(notes)
+
+
 #: A step back by more than this share of a file's span of distances is a restart ...
 RESTART_SHARE = 0.1
 #: ... when it is also more than this many of its readings' intervals (small files, local disorder).
