@@ -132,3 +132,50 @@ def test_the_manifest_column_dropout_value_reaches_the_reader(tmp_path: Path) ->
     assert summary.failed_on_record == 0
     run = pl.read_parquet(tmp_path / "out" / "runs.parquet").row(0, named=True)
     assert run["dropout_fraction"] == pytest.approx(7 / z.size, rel=0.05)
+
+
+# 3. Decimal commas in a comma-delimited file without a header
+
+def test_decimal_commas_with_a_comma_delimiter_are_refused_naming_the_line(tmp_path: Path) -> None:
+    z = texture(400)
+    z[5] = 2.0   # an integer height: a row of two fields
+    path = tmp_path / "broken.csv"
+    path.write_text("".join(f"{i},{v:.3f}\n".replace(".", ",").replace(",000\n", "\n") for i, v in enumerate(z)))
+    assert path.read_text().splitlines()[5] == "5,2"
+    with pytest.raises(ProfileFormatError, match=r"broken\.csv: line 6 \('5,2'\) has 2 fields where the first row "
+                                                 r"has 3.*decimal commas"):
+        read(path, distance_unit="mm", height_unit="mm")
+    path.write_text("".join(f"{i},{v:.3f}\n".replace(".", ",") for i, v in enumerate(texture(400) + 3)))
+    with pytest.raises(ProfileFormatError, match=r"broken\.csv: line 1 \('0,.*\) has 3 numbers and the file no "
+                                                 r"header.*distance_column and height_column.*decimal commas"):
+        read(path, distance_unit="mm", height_unit="mm")
+
+
+def test_three_columns_without_a_header_are_read_when_named(tmp_path: Path) -> None:
+    z = texture(300)
+    path = tmp_path / "points.csv"
+    path.write_text("".join(f"{i + 1},{i * DX_MM:.3f},{v:.3f}\n" for i, v in enumerate(z)))
+    profile = read(path, distance_column=1, height_column=2, distance_unit="mm", height_unit="mm")
+    np.testing.assert_allclose(profile.heights, z * 1e-3, atol=1e-12)
+    assert profile.dx == pytest.approx(0.5e-3)
+
+
+# 6. Thousands separators, a row with one field too many
+
+def test_a_thousands_separator_in_a_decimal_comma_file_is_named(tmp_path: Path) -> None:
+    path = tmp_path / "thousands.csv"
+    path.write_text("Distance [mm];Height [mm]\n" + "".join(
+        f"1.{i:03d};" + f"{v:.3f}".replace(".", ",") + "\n" for i, v in enumerate(texture(300))))
+    with pytest.raises(ProfileFormatError, match=r"thousands\.csv: '1\.000' in a file with decimal commas: a "
+                                                 r"thousands separator"):
+        read(path)
+
+
+def test_a_row_with_an_extra_number_is_refused_naming_its_line(tmp_path: Path) -> None:
+    text = "distance (mm),height (mm)\n" + rows(np.arange(300) * DX_MM, texture(300))
+    lines = text.splitlines()
+    lines[120] += ",7.5"
+    path = tmp_path / "extra.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProfileFormatError, match=r"extra\.csv: .*line 121 is not a row of 2 numbers"):
+        read(path)

@@ -11,6 +11,8 @@ from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
 from roadtex.profiles.readers.npy import stored_record
 from roadtex.profiles.readers.screening import (
+    THOUSANDS,
+    check_headerless_fields,
     dropout_codes,
 )
 from roadtex.profiles.readers.text import (
@@ -249,6 +251,10 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
                 "dx and dy) with format 'surface'")
     n_columns = len(names)
     first_data_line = skip + (2 if has_header else 1)
+    if decimal == ",":
+        refuse_thousands(rest[1:6] if has_header else rest[:5], separator, name)
+    if not has_header:
+        check_headerless_fields(body, separator, n_columns, name, first_data_line, options)
     if not data.endswith(b"\n"):
         last = body.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
         if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
@@ -311,3 +317,14 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     metadata.setdefault("format", "csv")
     set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
     return positions, heights, metadata, history, options.get("dx")
+
+
+def refuse_thousands(rows: list[bytes], separator: str, name: str) -> None:
+    """Refuses a decimal-comma file whose sample ``rows`` write a number with a thousands separator
+    (``1.000;2,383``): read with decimal commas, 1.000 is not 1000."""
+    for line in rows:
+        for field in line.decode("utf-8", "replace").split(separator):
+            if THOUSANDS.fullmatch(field.strip().strip('"')):
+                raise ProfileFormatError(
+                    f"{name}: {excerpt(field.strip())} in a file with decimal commas: a thousands separator (1.000 for "
+                    "1000)? roadtex does not read those: save the numbers without thousands separators")

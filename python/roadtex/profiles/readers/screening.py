@@ -4,10 +4,13 @@ second run whose distances restart. Each error is a ProfileFormatError naming th
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.conditioning import format_number
+from roadtex.profiles.readers.text import excerpt
 
 #: Numbers instruments and exports write for a missing reading, in the file's height unit. A
 #: reading exactly equal to one is a drop-out when it cannot be texture (:func:`dropout_codes`).
@@ -61,6 +64,50 @@ def dropout_codes(heights: np.ndarray, given: float | None) -> tuple[np.ndarray,
     return heights, "; ".join(notes)
 
 
+def line_fields(body: bytes, separator: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per line of ``body`` (a table's rows, UTF-8 with '\\n' line ends): the number of fields
+    (separators + 1) and whether the line is empty (nothing, or only a '\\r')."""
+    raw = np.frombuffer(body, dtype=np.uint8)
+    if raw.size == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
+    ends = np.flatnonzero(raw == ord("\n"))
+    if ends.size == 0 or ends[-1] != raw.size - 1:
+        ends = np.append(ends, raw.size)
+    starts = np.concatenate(([0], ends[:-1] + 1))
+    separators = np.flatnonzero(raw == ord(separator))
+    fields = np.diff(np.searchsorted(separators, np.concatenate(([0], ends)))) + 1
+    length = ends - starts
+    empty = (length == 0) | ((length == 1) & (raw[np.minimum(starts, raw.size - 1)] == ord("\r")))
+    return fields, empty
+
+
+def check_headerless_fields(body: bytes, separator: str, n_columns: int, name: str, first_line: int,
+                            options: dict) -> None:
+    """Refuses a table without a header whose rows have different numbers of fields, or whose
+    first row has numeric columns beyond the distance and height that no option names: where a
+    comma is both the delimiter and the decimal mark (``0,2,383`` for 0 and 2.383), taking the
+    first two would read 2.383 as 2. ``first_line`` is the file line of the table's first row."""
+    hint = (" (a comma delimiter with decimal commas, 0,2,383 for 0 and 2.383? Such a file cannot be read: save it "
+            "with ';' or tab between the columns)") if separator == "," else ""
+    if b'"' not in body:
+        fields, empty = line_fields(body, separator)
+        lines = body.split(b"\n")
+        odd = np.flatnonzero((fields != n_columns) & ~empty)
+        odd = [int(i) for i in odd[:50] if lines[int(i)].strip()]
+        if odd:
+            i = odd[0]
+            raise ProfileFormatError(
+                f"{name}: line {first_line + i} ({excerpt(lines[i].decode('utf-8', 'replace').rstrip())}) has "
+                f"{int(fields[i])} fields where the first row has {n_columns}: a table without a header must have the "
+                f"same number of fields on every row{hint}")
+    if n_columns > 2 and options.get("height_column") is None:
+        first = body.split(b"\n", 1)[0].decode("utf-8", "replace").rstrip()
+        raise ProfileFormatError(
+            f"{name}: line {first_line} ({excerpt(first)}) has {n_columns} numbers and the file no header: which are "
+            "the distance and the height? Name them with distance_column and height_column (indexes from 0; a "
+            f"read_profile option or manifest column){hint}")
+
+
 #: A step back by more than this share of a file's span of distances is a restart ...
 RESTART_SHARE = 0.1
 #: ... when it is also more than this many of its readings' intervals (small files, local disorder).
@@ -96,3 +143,8 @@ def refuse_restarts(positions: np.ndarray, name: str) -> None:
             f"{name}: the distances restart at data row {i + 2} (from {format_number(positions[i])} m back to "
             f"{format_number(positions[i + 1])} m{more}): two runs in one file? Split it, one run per file (rows "
             "only locally out of order are sorted)")
+
+
+
+#: A distance cell with a thousands separator in a decimal-comma file (1.000 for 1000).
+THOUSANDS = re.compile(r"[-+]?\d{1,3}(\.\d{3})+")

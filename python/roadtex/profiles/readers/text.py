@@ -270,7 +270,7 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
         # BaseException, so it is named here to be reported as what it is, a bad file.
         message = quoted_fields(str(exc).strip().splitlines()[0]) if str(exc).strip() else type(exc).__name__
-        where = first_bad_line(data, separator, decimal_comma)
+        where = first_bad_line(data, separator, decimal_comma, n_columns)
         if where is not None:
             index, line = where
             message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {excerpt(line)}"
@@ -281,12 +281,17 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
     return table, missing
 
 
-def first_bad_line(data: bytes, separator: str, decimal_comma: bool) -> tuple[int, str] | None:
+def first_bad_line(data: bytes, separator: str, decimal_comma: bool,
+                   n_columns: int | None = None) -> tuple[int, str] | None:
     """The first line (0-based, and its text) of a table that holds a field that is not a number
-    or a drop-out: where a parse failed, for the message (slow; only on the failure path)."""
+    or a drop-out, or more than ``n_columns`` fields: where a parse failed, for the message (slow;
+    only on the failure path)."""
     for index, raw in enumerate(data.split(b"\n")):
         line = raw.decode("utf-8", "replace").rstrip("\r")
-        for field in line.split(separator):
+        fields = line.split(separator)
+        if n_columns is not None and len(fields) > n_columns and '"' not in line:
+            return index, line
+        for field in fields:
             text = field.strip().strip('"')
             if text.lower() in DROPOUT_TOKENS:
                 continue
