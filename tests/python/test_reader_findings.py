@@ -160,6 +160,21 @@ def test_three_columns_without_a_header_are_read_when_named(tmp_path: Path) -> N
     assert profile.dx == pytest.approx(0.5e-3)
 
 
+# 4. Empty cells at the ends of heights-only files
+
+@pytest.mark.parametrize("header", ["height (mm)\n", ""], ids=["header", "no-header"])
+def test_empty_cells_at_the_ends_of_heights_only_files_shift_no_position(tmp_path: Path, header: str) -> None:
+    z = texture(500)
+    path = tmp_path / "heights.csv"
+    path.write_text(header + "\n" * 10 + "".join(f"{v:.3f}\n" for v in z) + "\n" * 40)
+    profile = read(path, dx=0.5e-3, height_unit="mm")
+    assert profile.positions.size == 510
+    assert np.isnan(profile.heights[:10]).all()
+    np.testing.assert_allclose(profile.heights[10:], z * 1e-3, atol=1e-12)
+    np.testing.assert_allclose(profile.positions[10:], (10 + np.arange(500)) * 0.5e-3, atol=1e-12)
+    assert any("40 empty line(s) after the last height trimmed" in line for line in profile.history)
+
+
 # 6. Thousands separators, a row with one field too many
 
 def test_a_thousands_separator_in_a_decimal_comma_file_is_named(tmp_path: Path) -> None:

@@ -162,14 +162,17 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     metadata: dict[str, object] = {}
     history: list[str] = []
     skip = 0
+    blank_before = 0   # the blank lines right before the table: leading drop-outs of heights without a header
     for line in lines:
         text = line.decode("utf-8", "replace").strip()
         if not text:
             skip += 1
+            blank_before += 1
             continue
         if not text.startswith("#"):
             break
         skip += 1
+        blank_before = 0
         body = text.lstrip("#").strip()
         if body.startswith(ROADTEX_TAG + ":"):
             stored = stored_record(body[len(ROADTEX_TAG) + 1:], lambda why: ProfileFormatError(
@@ -264,6 +267,7 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     # Blank lines (or lines of bare delimiters, ";;") at the end, as spreadsheets leave them, are no rows.
     blank = absent.all(axis=1)
     last = table.shape[0] - int(np.argmin(blank[::-1])) if not blank.all() else 0
+    trailing = table.shape[0] - last
     table, absent, blank = table[:last], absent[:last], blank[:last]
     if table.shape[0] == 0:
         raise ProfileFormatError(f"{name}: no data rows")
@@ -301,6 +305,8 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if d_index is not None and blank.any():
         history.append(f"skipped {int(blank.sum())} blank line(s) inside the table")
         table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
+    if d_index is None:
+        table = heights_only_ends(table, history, blank_before if not has_header and not preamble else 0, trailing)
     check_units_given(names, {"height": (h_index, options.get("height_unit")),
                               "distance": (d_index, options.get("distance_unit"))})
     raw_heights, codes_note = dropout_codes(table[:, h_index], options.get("dropout_value"))  # type: ignore[arg-type]
@@ -317,6 +323,18 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     metadata.setdefault("format", "csv")
     set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
     return positions, heights, metadata, history, options.get("dx")
+
+
+def heights_only_ends(table: np.ndarray, history: list[str], leading: int, trailing: int) -> np.ndarray:
+    """A heights-only ``table`` with its ``leading`` empty lines (before the first height of a file
+    without a header) added as drop-outs, so that no position shifts, and a history line for them
+    and for the ``trailing`` empty lines after the last height, which end the run (trimmed)."""
+    if leading:
+        table = np.vstack([np.full((leading, table.shape[1]), np.nan), table])
+        history.append(f"{leading} empty line(s) before the first height read as drop-outs (positions from start)")
+    if trailing:
+        history.append(f"{trailing} empty line(s) after the last height trimmed: the run ends at its last height")
+    return table
 
 
 def refuse_thousands(rows: list[bytes], separator: str, name: str) -> None:
