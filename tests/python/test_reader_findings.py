@@ -175,6 +175,30 @@ def test_empty_cells_at_the_ends_of_heights_only_files_shift_no_position(tmp_pat
     assert any("40 empty line(s) after the last height trimmed" in line for line in profile.history)
 
 
+# 5. Units stated in the file's metadata lines
+
+@pytest.mark.parametrize("block", ["# distance_unit: mm\n# height_unit: mm\n", "Device: LS-40\nUnits: mm\n\n",
+                                   "Unit = mm\n"], ids=["comments", "preamble", "equals"])
+def test_units_stated_in_metadata_lines_are_the_files_units(tmp_path: Path, block: str) -> None:
+    x, z = np.arange(400) * DX_MM, texture(400)
+    path = tmp_path / "units.csv"
+    path.write_text(block + "distance,height\n" + rows(x, z))
+    profile = read(path)
+    np.testing.assert_allclose(profile.positions, x * 1e-3, atol=1e-12)
+    np.testing.assert_allclose(profile.heights, z * 1e-3, atol=1e-12)
+    assert profile.metadata["distance_unit_stated"].startswith("mm (the file's line")
+    assert any("unit mm from the file's line" in line for line in profile.history)
+
+
+def test_a_units_line_that_states_no_one_unit_is_quoted_in_the_refusal(tmp_path: Path) -> None:
+    path = tmp_path / "mixed.csv"
+    path.write_text("Units: mm / um\ndistance,height\n" + rows(np.arange(50) * DX_MM, texture(50)))
+    with pytest.raises(ProfileFormatError, match=r"mixed\.csv: no unit .*\(the file's line\(s\) 'units: mm / um' "
+                                                 r"state no one unit per column\)") as refused:
+        read(path)
+    assert "states none" not in str(refused.value)
+
+
 # 6. Thousands separators, a row with one field too many
 
 def test_a_thousands_separator_in_a_decimal_comma_file_is_named(tmp_path: Path) -> None:

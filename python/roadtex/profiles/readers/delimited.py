@@ -14,6 +14,8 @@ from roadtex.profiles.readers.screening import (
     THOUSANDS,
     check_headerless_fields,
     dropout_codes,
+    metadata_units,
+    with_metadata_units,
 )
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
@@ -307,8 +309,12 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
     if d_index is None:
         table = heights_only_ends(table, history, blank_before if not has_header and not preamble else 0, trailing)
+    stated, unclear = metadata_units(metadata)
+    header_names = names
+    names, notes = with_metadata_units(names, {"height": h_index, "distance": d_index}, stated, split_column_name)
+    history.extend(notes)
     check_units_given(names, {"height": (h_index, options.get("height_unit")),
-                              "distance": (d_index, options.get("distance_unit"))})
+                              "distance": (d_index, options.get("distance_unit"))}, unclear)
     raw_heights, codes_note = dropout_codes(table[:, h_index], options.get("dropout_value"))  # type: ignore[arg-type]
     if codes_note:
         history.append(codes_note)
@@ -322,6 +328,8 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         positions = grid_positions(heights.size, options, name)
     metadata.setdefault("format", "csv")
     set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
+    if d_index is not None and names[d_index] != header_names[d_index]:   # the unit a metadata line states
+        set_distance_unit(metadata, f"{stated['distance'][0]} (the file's line {stated['distance'][1]!r})")
     return positions, heights, metadata, history, options.get("dx")
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.conditioning import format_number
 from roadtex.profiles.readers.text import excerpt
+from roadtex.profiles.units import UNITS
 
 #: Numbers instruments and exports write for a missing reading, in the file's height unit. A
 #: reading exactly equal to one is a drop-out when it cannot be texture (:func:`dropout_codes`).
@@ -108,6 +109,47 @@ def check_headerless_fields(body: bytes, separator: str, n_columns: int, name: s
             f"read_profile option or manifest column){hint}")
 
 
+#: Metadata keys (``# distance_unit: mm``, ``Units: mm``) that state the unit of the distance
+#: column, the height column or both.
+UNIT_KEYS = {"distance_unit": ("distance",), "distance_units": ("distance",), "x_unit": ("distance",),
+             "position_unit": ("distance",), "height_unit": ("height",), "height_units": ("height",),
+             "z_unit": ("height",), "unit": ("distance", "height"), "units": ("distance", "height")}
+
+
+def metadata_units(metadata: dict[str, object]) -> tuple[dict[str, tuple[str, str]], list[str]]:
+    """The units the file's metadata lines state: ``{"distance"|"height": (unit, the line as
+    read)}``, and the lines that mention units in a way that is not one unit (quoted for the
+    refusal of a missing unit: ``units: mm/um``)."""
+    found: dict[str, tuple[str, str]] = {}
+    unclear = []
+    for key, value in metadata.items():
+        if "unit" not in key:
+            continue
+        said = f"{key}: {value}"
+        text = str(value).strip().strip("()[]").strip()
+        if key in UNIT_KEYS and text.lower() in UNITS:
+            for what in UNIT_KEYS[key]:
+                found.setdefault(what, (text, said))
+        else:
+            unclear.append(said)
+    return found, unclear
+
+
+def with_metadata_units(names: list[str], columns: dict[str, int | None], stated: dict[str, tuple[str, str]],
+                        split) -> tuple[list[str], list[str]]:
+    """The column ``names`` with a unit the metadata states added to each column (``what -> index``)
+    whose header states none (``split`` is the header-name parser), and the history lines saying so."""
+    names = list(names)
+    notes = []
+    for what, index in columns.items():
+        if index is None or what not in stated or split(names[index])[1] is not None:
+            continue
+        unit, said = stated[what]
+        names[index] = f"{names[index]} ({unit})"
+        notes.append(f"the {what} column {names[index]!r}: unit {unit} from the file's line {said!r}")
+    return names, notes
+
+
 #: A step back by more than this share of a file's span of distances is a restart ...
 RESTART_SHARE = 0.1
 #: ... when it is also more than this many of its readings' intervals (small files, local disorder).
@@ -143,7 +185,6 @@ def refuse_restarts(positions: np.ndarray, name: str) -> None:
             f"{name}: the distances restart at data row {i + 2} (from {format_number(positions[i])} m back to "
             f"{format_number(positions[i + 1])} m{more}): two runs in one file? Split it, one run per file (rows "
             "only locally out of order are sorted)")
-
 
 
 #: A distance cell with a thousands separator in a decimal-comma file (1.000 for 1000).

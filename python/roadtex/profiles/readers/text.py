@@ -146,16 +146,20 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
 WHERE_OPTIONS = "read_profile option, manifest column or roadtex process --{flag}"
 
 
-def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]]) -> None:
+def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]],
+                      unclear: list[str] | tuple[str, ...] = ()) -> None:
     """Refuses, naming every one at once, the columns (``what -> (index, unit given)``) whose unit
-    neither the header nor the options give: a number without its unit is never guessed."""
+    neither the header nor the options give: a number without its unit is never guessed. ``unclear``:
+    the file's metadata lines that mention units but state none roadtex can take (quoted)."""
     missing = [(what, names[index]) for what, (index, given) in columns.items()
                if index is not None and given is None and split_column_name(names[index])[1] is None]
     if missing:
         columns_text = " and ".join(f"the {what} column {column!r}" for what, column in missing)
         options = " and ".join(f"{what}_unit" for what, _ in missing)
         flags = ", ".join(f"--{what}-unit" for what, _ in missing)
-        raise ProfileFormatError(f"no unit for {columns_text} (the file states none): give {options} ('m', 'mm', "
+        said = (f"the file's line(s) {', '.join(excerpt(u, 40) for u in unclear[:3])} state no one unit per column"
+                if unclear else "the file states none")
+        raise ProfileFormatError(f"no unit for {columns_text} ({said}): give {options} ('m', 'mm', "
                                  f"'um', ...) as a read_profile option, a manifest column or roadtex process {flags}")
 
 
