@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roadtex._checks import positive
+from roadtex._checks import finite_number, positive
 from roadtex.errors import InvalidInputError, ProfileFormatError, UnitConflictWarning
 from roadtex.profiles.conditioning import distance_jumps, format_number, missing_positions
 from roadtex.profiles.plausibility import stated_distance_unit, warn_if_implausible_texture
@@ -16,6 +16,7 @@ from roadtex.profiles.readers.captif import CAPTIF_MARKER, read_captif
 from roadtex.profiles.readers.delimited import read_delimited
 from roadtex.profiles.readers.npy import read_npy
 from roadtex.profiles.readers.parquet import read_parquet
+from roadtex.profiles.readers.screening import refuse_restarts
 from roadtex.profiles.readers.text import decode_text, nominal_dx, refuse_binary, sorted_samples
 
 #: A dx given for a file with distances that differs from their interval by more than this share
@@ -27,7 +28,7 @@ FORMATS = ("captif", "csv", "npy", "parquet")
 #: the same names carry them per run).
 READ_OPTIONS: dict[str, type] = {
     "distance_column": str, "height_column": str, "distance_unit": str, "height_unit": str, "dx": float,
-    "start": float, "delimiter": str, "decimal": str, "encoding": str, "sort": bool,
+    "start": float, "delimiter": str, "decimal": str, "encoding": str, "sort": bool, "dropout_value": float,
 }
 
 
@@ -89,9 +90,13 @@ def read_profile(path: str | Path, format: str | None = None, **options: object)
     ``decimal`` (``"."`` or ``","``; a decimal comma is recognised in ``;``- or tab-separated
     files when every comma in the first rows sits inside a number), ``encoding`` (text files;
     UTF-8, UTF-16 with a byte-order mark and Latin-1 are recognised),
-    ``sort`` (default True: out-of-order rows are sorted by position; False refuses them).
+    ``sort`` (default True: out-of-order rows are sorted by position; False refuses them),
+    ``dropout_value`` (text files: the number the file writes for a missing reading, in its height
+    unit, e.g. -9999; those readings become drop-outs, counted in the history. The codes -9999,
+    -999, 9999 and -99999 are recognised without it where they repeat as no texture does).
 
-    Rows are sorted by position; exact duplicates that agree are merged.
+    Rows are sorted by position; exact duplicates that agree are merged. Distances that go back
+    by a large share of the run (a second run appended, restarting at 0) are refused.
 
     Warns:
         ImplausibleTextureWarning: heights or an interval that cannot be a road texture in metres
@@ -119,6 +124,8 @@ def opened(path: str | Path, format: str | None, options: dict[str, object]) -> 
     unknown = set(options) - set(READ_OPTIONS)
     if unknown:
         raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; known: {sorted(READ_OPTIONS)}")
+    if options.get("dropout_value") is not None:
+        options["dropout_value"] = finite_number(options["dropout_value"], "dropout_value")
     if format is not None and format not in FORMATS:
         raise InvalidInputError(f"unknown format {format!r}; known formats: {', '.join(FORMATS)}")
     head = file_head(file)
@@ -134,6 +141,9 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     """Reads ``file`` in format ``fmt``; see :func:`read_profile` (it warns about heights that
     cannot be a road texture in the unit read, except inside
     :func:`~roadtex.profiles.plausibility.judged_once`)."""
+    if fmt in ("npy", "parquet") and options.get("dropout_value") is not None:
+        raise InvalidInputError(f"{name}: dropout_value is for text files (CSV, CAPTIF); a {fmt} file writes its "
+                                "drop-outs as NaN")
     if fmt == "npy":
         positions, heights, metadata, history, dx = read_npy(file, name, options)
         encoding = None
@@ -157,6 +167,8 @@ def read_as(file: Path, name: str, fmt: str, options: dict[str, object]) -> Prof
     if biggest > MAX_MAGNITUDE:   # the file's fault, not an argument's: a ProfileFormatError naming it
         raise ProfileFormatError(f"{name}: a height or position of {biggest:.3g} m is beyond {MAX_MAGNITUDE:.0g} m: "
                                  "not a road profile (a corrupt file, or the wrong unit?)")
+    if not np.isnan(positions).any():
+        refuse_restarts(positions, name)
     if options.get("sort", True) is False and np.any(np.diff(positions) <= 0):
         raise ProfileFormatError(f"{name}: positions are not strictly increasing (pass sort=True to sort them)")
     positions, heights, note = sorted_samples(positions, heights, name)

@@ -8,6 +8,7 @@ import numpy as np
 
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
+from roadtex.profiles.readers.screening import dropout_codes
 from roadtex.profiles.readers.text import ReadResult, column_unit, first_lines, parse_table, parse_value, stated_unit
 
 #: The line that ends a CAPTIF file's metadata block.
@@ -51,7 +52,8 @@ def read_captif(data: bytes, name: str, options: dict) -> ReadResult:
                          "(truncated or malformed file); drop-outs are written NaN")
     # The file calls it "Depth", but it is a height, positive up (CAPTIF's README).
     positions = table[:, 1] * distance_factor
-    heights = table[:, 2] * height_factor
+    raw_heights, codes_note = dropout_codes(table[:, 2], options.get("dropout_value"))
+    heights = raw_heights * height_factor
     normalised: dict[str, object] = {
         "format": "captif", "device": "CAPTIF stationary laser profilometer",
     }
@@ -71,4 +73,4 @@ def read_captif(data: bytes, name: str, options: dict) -> ReadResult:
         normalised[target] = parse_value(str(value)) if value != "" else None
     # the format's distances are in mm (a header without its unit included): certain, never assumed
     set_distance_unit(normalised, stated_unit(header, 1, options.get("distance_unit"), "mm (the CAPTIF format)"))
-    return positions, heights, normalised, [], options.get("dx")
+    return positions, heights, normalised, [codes_note] if codes_note else [], options.get("dx")

@@ -10,6 +10,13 @@ from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
 from roadtex.profiles.readers.npy import stored_record
+from roadtex.profiles.readers.screening import (
+    THOUSANDS,
+    check_headerless_fields,
+    dropout_codes,
+    metadata_units,
+    with_metadata_units,
+)
 from roadtex.profiles.readers.text import (
     DISTANCE_NAMES,
     DROPOUT_TOKENS,
@@ -157,14 +164,17 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     metadata: dict[str, object] = {}
     history: list[str] = []
     skip = 0
+    blank_before = 0   # the blank lines right before the table: leading drop-outs of heights without a header
     for line in lines:
         text = line.decode("utf-8", "replace").strip()
         if not text:
             skip += 1
+            blank_before += 1
             continue
         if not text.startswith("#"):
             break
         skip += 1
+        blank_before = 0
         body = text.lstrip("#").strip()
         if body.startswith(ROADTEX_TAG + ":"):
             stored = stored_record(body[len(ROADTEX_TAG) + 1:], lambda why: ProfileFormatError(
@@ -246,6 +256,10 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
                 "dx and dy) with format 'surface'")
     n_columns = len(names)
     first_data_line = skip + (2 if has_header else 1)
+    if decimal == ",":
+        refuse_thousands(rest[1:6] if has_header else rest[:5], separator, name)
+    if not has_header:
+        check_headerless_fields(body, separator, n_columns, name, first_data_line, options)
     if not data.endswith(b"\n"):
         last = body.rstrip(b"\r\n").rsplit(b"\n", 1)[-1]
         if last.count(separator.encode()) < n_columns - 1 or not last.split(separator.encode())[-1].strip():
@@ -255,6 +269,7 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     # Blank lines (or lines of bare delimiters, ";;") at the end, as spreadsheets leave them, are no rows.
     blank = absent.all(axis=1)
     last = table.shape[0] - int(np.argmin(blank[::-1])) if not blank.all() else 0
+    trailing = table.shape[0] - last
     table, absent, blank = table[:last], absent[:last], blank[:last]
     if table.shape[0] == 0:
         raise ProfileFormatError(f"{name}: no data rows")
@@ -292,9 +307,18 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
     if d_index is not None and blank.any():
         history.append(f"skipped {int(blank.sum())} blank line(s) inside the table")
         table, absent, row_numbers = table[~blank], absent[~blank], row_numbers[~blank]
+    if d_index is None:
+        table = heights_only_ends(table, history, blank_before if not has_header and not preamble else 0, trailing)
+    stated, unclear = metadata_units(metadata)
+    header_names = names
+    names, notes = with_metadata_units(names, {"height": h_index, "distance": d_index}, stated, split_column_name)
+    history.extend(notes)
     check_units_given(names, {"height": (h_index, options.get("height_unit")),
-                              "distance": (d_index, options.get("distance_unit"))})
-    heights = table[:, h_index] * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
+                              "distance": (d_index, options.get("distance_unit"))}, unclear)
+    raw_heights, codes_note = dropout_codes(table[:, h_index], options.get("dropout_value"))  # type: ignore[arg-type]
+    if codes_note:
+        history.append(codes_note)
+    heights = raw_heights * column_unit(names, h_index, options.get("height_unit"), "height", source=name)
     if d_index is not None:
         if absent[:, d_index].any():
             row = int(row_numbers[np.flatnonzero(absent[:, d_index])[0]])
@@ -304,4 +328,29 @@ def read_delimited(data: bytes, name: str, options: dict) -> ReadResult:
         positions = grid_positions(heights.size, options, name)
     metadata.setdefault("format", "csv")
     set_distance_unit(metadata, stated_unit(names, d_index, options.get("distance_unit")))
+    if d_index is not None and names[d_index] != header_names[d_index]:   # the unit a metadata line states
+        set_distance_unit(metadata, f"{stated['distance'][0]} (the file's line {stated['distance'][1]!r})")
     return positions, heights, metadata, history, options.get("dx")
+
+
+def heights_only_ends(table: np.ndarray, history: list[str], leading: int, trailing: int) -> np.ndarray:
+    """A heights-only ``table`` with its ``leading`` empty lines (before the first height of a file
+    without a header) added as drop-outs, so that no position shifts, and a history line for them
+    and for the ``trailing`` empty lines after the last height, which end the run (trimmed)."""
+    if leading:
+        table = np.vstack([np.full((leading, table.shape[1]), np.nan), table])
+        history.append(f"{leading} empty line(s) before the first height read as drop-outs (positions from start)")
+    if trailing:
+        history.append(f"{trailing} empty line(s) after the last height trimmed: the run ends at its last height")
+    return table
+
+
+def refuse_thousands(rows: list[bytes], separator: str, name: str) -> None:
+    """Refuses a decimal-comma file whose sample ``rows`` write a number with a thousands separator
+    (``1.000;2,383``): read with decimal commas, 1.000 is not 1000."""
+    for line in rows:
+        for field in line.decode("utf-8", "replace").split(separator):
+            if THOUSANDS.fullmatch(field.strip().strip('"')):
+                raise ProfileFormatError(
+                    f"{name}: {excerpt(field.strip())} in a file with decimal commas: a thousands separator (1.000 for "
+                    "1000)? roadtex does not read those: save the numbers without thousands separators")

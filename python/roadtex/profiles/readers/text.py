@@ -146,16 +146,20 @@ def pick_column(names: list[str], wanted: str | int | None, synonyms: tuple[str,
 WHERE_OPTIONS = "read_profile option, manifest column or roadtex process --{flag}"
 
 
-def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]]) -> None:
+def check_units_given(names: list[str], columns: dict[str, tuple[int | None, str | None]],
+                      unclear: list[str] | tuple[str, ...] = ()) -> None:
     """Refuses, naming every one at once, the columns (``what -> (index, unit given)``) whose unit
-    neither the header nor the options give: a number without its unit is never guessed."""
+    neither the header nor the options give: a number without its unit is never guessed. ``unclear``:
+    the file's metadata lines that mention units but state none roadtex can take (quoted)."""
     missing = [(what, names[index]) for what, (index, given) in columns.items()
                if index is not None and given is None and split_column_name(names[index])[1] is None]
     if missing:
         columns_text = " and ".join(f"the {what} column {column!r}" for what, column in missing)
         options = " and ".join(f"{what}_unit" for what, _ in missing)
         flags = ", ".join(f"--{what}-unit" for what, _ in missing)
-        raise ProfileFormatError(f"no unit for {columns_text} (the file states none): give {options} ('m', 'mm', "
+        said = (f"the file's line(s) {', '.join(excerpt(u, 40) for u in unclear[:3])} state no one unit per column"
+                if unclear else "the file states none")
+        raise ProfileFormatError(f"no unit for {columns_text} ({said}): give {options} ('m', 'mm', "
                                  f"'um', ...) as a read_profile option, a manifest column or roadtex process {flags}")
 
 
@@ -270,7 +274,7 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
         # malformed input (a file cut inside a quoted field) panics: a PanicException, which is a
         # BaseException, so it is named here to be reported as what it is, a bad file.
         message = quoted_fields(str(exc).strip().splitlines()[0]) if str(exc).strip() else type(exc).__name__
-        where = first_bad_line(data, separator, decimal_comma)
+        where = first_bad_line(data, separator, decimal_comma, n_columns)
         if where is not None:
             index, line = where
             message = f"line {first_line + index + 1} is not a row of {n_columns} numbers: {excerpt(line)}"
@@ -281,12 +285,17 @@ def parse_table(data: bytes, separator: str, n_columns: int, name: str,
     return table, missing
 
 
-def first_bad_line(data: bytes, separator: str, decimal_comma: bool) -> tuple[int, str] | None:
+def first_bad_line(data: bytes, separator: str, decimal_comma: bool,
+                   n_columns: int | None = None) -> tuple[int, str] | None:
     """The first line (0-based, and its text) of a table that holds a field that is not a number
-    or a drop-out: where a parse failed, for the message (slow; only on the failure path)."""
+    or a drop-out, or more than ``n_columns`` fields: where a parse failed, for the message (slow;
+    only on the failure path)."""
     for index, raw in enumerate(data.split(b"\n")):
         line = raw.decode("utf-8", "replace").rstrip("\r")
-        for field in line.split(separator):
+        fields = line.split(separator)
+        if n_columns is not None and len(fields) > n_columns and '"' not in line:
+            return index, line
+        for field in fields:
             text = field.strip().strip('"')
             if text.lower() in DROPOUT_TOKENS:
                 continue
