@@ -96,7 +96,8 @@ def process_command(args: argparse.Namespace) -> int:
         if refused or coarse:
             return 2
     reader_defaults = {"distance_unit": args.distance_unit, "height_unit": args.height_unit,
-                       "delimiter": args.delimiter, "decimal": args.decimal, "dx": args.input_dx}
+                       "delimiter": args.delimiter, "decimal": args.decimal, "dx": args.input_dx,
+                       "dropout_value": args.dropout_value}
     try:
         options = ProcessingOptions(
             youngs_moduli=tuple(e * 1e6 for e in args.moduli), mean_pressure=args.pressure * 1e6,
@@ -320,6 +321,9 @@ def _add_processing_arguments(parser: argparse.ArgumentParser) -> None:
     reading.add_argument("--delimiter", default=None, help="column delimiter of text files (default: sniffed)")
     reading.add_argument("--decimal", default=None, choices=[".", ","],
                          help="decimal mark of text files (default: sniffed; ',' for European exports)")
+    reading.add_argument("--dropout-value", type=float, default=None, metavar="VALUE",
+                         help="the number text and CAPTIF files write for a missing reading (in the file's "
+                              "height unit, e.g. -9999): read as a drop-out")
     reading.add_argument("--input-dx", type=float, default=None, metavar="M",
                          help="sampling interval in m of heights-only files (.npy, one-column text); files with "
                               "distances keep their own")

@@ -132,6 +132,13 @@ def test_the_manifest_column_dropout_value_reaches_the_reader(tmp_path: Path) ->
     assert summary.failed_on_record == 0
     run = pl.read_parquet(tmp_path / "out" / "runs.parquet").row(0, named=True)
     assert run["dropout_fraction"] == pytest.approx(7 / z.size, rel=0.05)
+    # the command line's default for every run: --dropout-value
+    from roadtex.cli import main
+    pl.DataFrame({"path": ["a.csv"]}).write_csv(tmp_path / "plain.csv")
+    assert main(["process", str(tmp_path / "plain.csv"), "--out", str(tmp_path / "cli"), "--moduli", "2",
+                 "--segment-length", "0.25", "--error-budget", "off", "--dropout-value", "-123", "--quiet"]) == 0
+    run = pl.read_parquet(tmp_path / "cli" / "runs.parquet").row(0, named=True)
+    assert run["dropout_fraction"] == pytest.approx(7 / z.size, rel=0.05)
 
 
 # 3. Decimal commas in a comma-delimited file without a header
