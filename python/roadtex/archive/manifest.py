@@ -25,7 +25,7 @@ from roadtex.profiles.plausibility import (
     judged_once,
     stated_distance_unit,
 )
-from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.profiles.readers import file_head, guess_format, limits, read_profile
 from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
@@ -152,6 +152,10 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
         text = manifest_path.suffix.lower() != ".parquet"
         try:
             if not text:
+                rows, columns = limits.parquet_size(manifest_path, str(manifest_path))
+                if rows * columns > limits.MAX_POINTS:   # before polars allocates it: it aborts when it cannot
+                    raise ManifestError(f"{where} declares {rows:,} rows x {columns} columns, beyond the "
+                                        f"{limits.MAX_POINTS:,} cells a manifest may hold (refused unread)")
                 table = pl.read_parquet(manifest_path)
             else:
                 table = read_text_manifest(manifest_path)

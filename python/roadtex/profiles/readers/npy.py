@@ -11,6 +11,7 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.limits import check_points
 from roadtex.profiles.readers.text import ReadResult, bare_interval_unit
 from roadtex.profiles.units import unit_factor
 
@@ -58,11 +59,17 @@ def npy_header(path: Path, name: str) -> tuple[tuple[int, ...], np.dtype]:
 
 
 def load_numeric_npy(path: Path, name: str) -> np.ndarray:
-    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles) and its header's
-    shape fits in the file (:func:`npy_header`)."""
+    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles), its header's
+    shape fits in the file (:func:`npy_header`) and declares at most
+    :data:`~roadtex.profiles.readers.limits.MAX_POINTS` values (a sparse file can hold 16 GB of
+    zeros in a few kB of disk): both checked before the array is read."""
     shape, dtype = npy_header(path, name)
     if dtype.kind not in "fiu":
         raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {dtype}")
+    count = 1
+    for length in shape:
+        count *= int(length)
+    check_points(name, count, f"its .npy header's shape {shape}")
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
