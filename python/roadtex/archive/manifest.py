@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import difflib
 import errno
-import io
 import json
 import os
 import warnings
@@ -13,6 +12,7 @@ from typing import Any, Sequence
 
 import polars as pl
 
+from roadtex.archive.manifest_text import blank_rows, canonical_columns, read_text_manifest
 from roadtex.archive.options import MAX_SPEED_KMH
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.archive.store import STATUS_FILE
@@ -142,7 +142,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     if isinstance(source, pl.DataFrame):
         table = source
         base = Path(base_dir) if base_dir is not None else Path.cwd()
-        where, text = "manifest (a DataFrame)", False
+        where, text, notes = "manifest (a DataFrame)", False, []
     else:
         manifest_path = Path(source)
         base = Path(base_dir) if base_dir is not None else manifest_path.resolve().parent
@@ -150,6 +150,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
         if not manifest_path.is_file():
             raise ManifestError(f"{where} does not exist or is not a file")
         text = manifest_path.suffix.lower() != ".parquet"
+        notes: list[str] = []
         try:
             if not text:
                 rows, columns = limits.parquet_size(manifest_path, str(manifest_path))
@@ -158,17 +159,30 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                                         f"{limits.MAX_POINTS:,} cells a manifest may hold (refused unread)")
                 table = pl.read_parquet(manifest_path)
             else:
-                table = read_text_manifest(manifest_path)
+                table = read_text_manifest(manifest_path, notes)
         except ManifestError:
             raise
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
+    table = canonical_columns(table, where, extra_columns)   # "Path", "Run ID": path, run_id
+    # wholly empty rows (a blank line at the end, a spreadsheet's cleared rows ";;") are no runs;
+    # the others keep their row numbers in the messages
+    empty = blank_rows(table)
+    rows_at = [index for index, blank in enumerate(empty.to_list()) if not blank]
+    if len(rows_at) < table.height:
+        notes.append(f"{table.height - len(rows_at)} wholly empty row(s) left out (data row(s) "
+                     f"{', '.join(str(i + 1) for i in range(table.height) if empty[i])[:80]})")
+        table = table.filter(~empty)
+
     def cell(index: int, column: str) -> str:
         """Where a cell is: the manifest, its 1-based data row (and line, in a text file) and column."""
-        line = f", line {index + 2} of the file" if text else ""
-        return f"{where}, data row {index + 1} (1-based, header not counted{line}), column {column!r}"
+        row = rows_at[index]
+        line = f", line {row + 2} of the file" if text else ""
+        return f"{where}, data row {row + 1} (1-based, header not counted{line}), column {column!r}"
 
+    for note in notes:   # said once, as the manifest is read (roadtex process shows it)
+        warnings.warn(f"{where}: {note}", RoadtexWarning, stacklevel=2)
     if "path" not in table.columns:
         raise ManifestError(f"{where} has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
     known = {**MANIFEST_COLUMNS, **READER_COLUMNS}
@@ -220,6 +234,8 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             raise ManifestError(f"{cell(bad_marks['__row__'][0], 'decimal')}: must be '.' or ',', "
                                 f"found {bad_marks['decimal'][0]!r}")
     table = table.with_columns(casts)
+    # blanks around a path or run id (a spreadsheet's "a.csv ") are no part of it
+    table = table.with_columns(pl.col(name).str.strip_chars().replace("", None) for name in ("path", "run_id"))
     if table["path"].null_count():
         first = int(table["path"].is_null().arg_max() or 0)
         raise ManifestError(f"{cell(first, 'path')}: empty; every run needs a file "
@@ -243,7 +259,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     seen: dict[str, int] = {}
     for index, rid in enumerate(run_ids):
         if rid in seen:
-            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {seen[rid] + 1}; "
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {rows_at[seen[rid]] + 1}; "
                                 "a run id left empty is the file name without suffix); give each run a unique run_id")
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
@@ -261,46 +277,6 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
                for fmt, path in zip(table["format"].to_list(), paths)]
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids),
                               pl.Series("format", formats, dtype=pl.String))
-
-
-def read_text_manifest(path: Path) -> pl.DataFrame:
-    """A CSV or TSV manifest as strings, as spreadsheets save it: comma, tab or (European Excel)
-    semicolon separated, Excel's ``sep=;`` line, a byte-order mark. With semicolons, a decimal
-    comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
-    point: every number is then read as written."""
-    raw = path.read_bytes()
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):   # UTF-16 with its byte-order mark (Excel's "Unicode text")
-        try:
-            raw = raw.decode("utf-16").encode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise ManifestError(f"manifest {path}: starts as UTF-16 but does not decode as such ({exc.reason} at byte "
-                                f"{exc.start}); save it as UTF-8 CSV") from None
-    elif b"\x00" in raw[:4096]:
-        raise ManifestError(f"manifest {path}: contains NUL bytes, so it is not UTF-8 text (UTF-16 without a "
-                            "byte-order mark, or not a text file); save it as UTF-8 CSV")
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    lines = raw.split(b"\n", 2)
-    first = lines[0].strip()
-    hint = first.lower().startswith(b"sep=") and len(first) == 5
-    if hint:
-        raw = raw[len(lines[0]) + 1:]
-        header = lines[1] if len(lines) > 1 else b""
-    else:
-        header = lines[0]
-    if hint:
-        separator = first[4:5].decode("latin-1")
-    elif path.suffix.lower() in (".tsv", ".tab") or (b"\t" in header and b"," not in header):
-        separator = "\t"
-    elif b";" in header and b"," not in header:
-        separator = ";"
-    else:
-        separator = ","
-    table = pl.read_csv(io.BytesIO(raw), separator=separator, infer_schema=False)
-    if separator == ";":
-        numeric = [c for c in table.columns if c in ("speed_kmh", "dx", "dy", "start") or c.startswith(NOISE_PREFIX)]
-        table = table.with_columns(pl.col(c).str.replace(",", ".", literal=True) for c in numeric)
-    return table
 
 
 #: Manifest columns users write for what is a job option, not a per-run column.
