@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -104,6 +105,10 @@ def read_sidecar(path: Path, options: dict,
 
 #: The largest sidecar read (bytes): spacings, units, metadata and a history are a few kB.
 MAX_SIDECAR_BYTES = 2**20
+#: The keys a sidecar may hold: the spacings along and across the road (m), the units of the
+#: distances and heights, the metadata and the history. Any other is refused (a ``"DY"`` or
+#: ``"dy_mm"`` was ignored without a word, and dy taken as dx).
+SIDECAR_KEYS = ("dx", "dy", "distance_unit", "height_unit", "metadata", "history")
 
 
 def load_sidecar(sidecar: Path) -> dict:
@@ -121,7 +126,18 @@ def load_sidecar(sidecar: Path) -> dict:
         text = sidecar.read_text(encoding="utf-8")
     except (UnicodeDecodeError, OSError) as exc:
         raise damaged(str(exc)[:200]) from None
-    return stored_record(text, damaged)
+    stored = stored_record(text, damaged)
+    unknown = [key for key in stored if key not in SIDECAR_KEYS]
+    if unknown:
+        hints = []
+        for key in unknown[:5]:
+            close = difflib.get_close_matches(str(key).lower(), SIDECAR_KEYS, n=1, cutoff=0.5)
+            hints.append(f"{str(key)[:40]!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+        more = f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""
+        raise ProfileFormatError(f"{sidecar.name}: unknown key(s) {', '.join(hints)}{more}; a sidecar holds "
+                                 f"{', '.join(SIDECAR_KEYS)} (dx and dy in m; the array's shape is its own): "
+                                 "correct or remove the key")
+    return stored
 
 
 def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> dict:
