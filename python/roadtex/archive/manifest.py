@@ -33,6 +33,9 @@ from roadtex.surfaces.readers import is_surface_file, read_surface
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg", ".x3p"}
 #: The longest run id (UTF-8 bytes): it names the run's output folder (file systems: 255 bytes a name).
 MAX_RUN_ID_BYTES = 200
+#: Names Windows reserves for devices, with or without a suffix (``con``, ``con.txt``; any case): no
+#: folder can have them there, so no run id may (an archive moves between machines).
+RESERVED_NAMES = {"con", "prn", "aux", "nul", *(f"{d}{i}" for d in ("com", "lpt") for i in range(1, 10))}
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
@@ -257,6 +260,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     # file_sha256 refuse it: /dev/zero never ends).
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
     seen: dict[str, int] = {}
+    folded: dict[str, int] = {}   # run ids ignoring case: one folder where case is not told apart
     for index, rid in enumerate(run_ids):
         if rid in seen:
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {rows_at[seen[rid]] + 1}; "
@@ -266,11 +270,20 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
         if any(ord(c) < 32 or ord(c) == 127 for c in rid):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} contains a control character (a NUL "
                                 "byte, a tab or a line break): it cannot name an output folder")
+        problem = folder_name_problem(rid)
+        if problem is not None:
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} {problem}; give the run another run_id")
+        if rid.casefold() in folded:
+            other = folded[rid.casefold()]
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} and {run_ids[other]!r} (data row "
+                                f"{rows_at[other] + 1}) differ only in case: they name one folder on Windows and macOS "
+                                "(an archive moves between machines); give each run a unique run_id")
         if len(rid.encode("utf-8")) > MAX_RUN_ID_BYTES:
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:40]!r}... is {len(rid.encode('utf-8'))} bytes "
                                 f"long; at most {MAX_RUN_ID_BYTES} (it names the run's output folder, and file systems "
                                 "allow 255 bytes a name)")
         seen[rid] = index
+        folded[rid.casefold()] = index
     # a surface file listed without a format (a hand-written manifest: a 2-D .npy with dx and dy) is
     # a surface run, as roadtex manifest would have marked it
     formats = [fmt if fmt is not None or not is_surface_file(path) else "surface"
@@ -371,10 +384,17 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata_cell(name, metadata[name], path.name)
         rows.append(row)
+    unportable = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
+                  if portable_run_id(path.stem) != path.stem]
+    if unportable:
+        warnings.warn(f"{len(unportable)} file name(s) cannot name a run's folder on Windows (a device name such as "
+                      "con or nul, or a trailing dot or blank), so their run ids differ from them: "
+                      f"{'; '.join(unportable[:5])}{' ...' if len(unportable) > 5 else ''}", RoadtexWarning, stacklevel=2)
     renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
-               if row["run_id"] != path.stem]
+               if row["run_id"] != portable_run_id(path.stem)]
     if renamed:
-        warnings.warn(f"{len(renamed)} file(s) share a name with another file of the folder, so their run ids are "
+        warnings.warn(f"{len(renamed)} file(s) share a name (whatever the case) with another file of the folder, so "
+                      "their run ids are "
                       f"made from their paths: {'; '.join(renamed[:5])}{' ...' if len(renamed) > 5 else ''}",
                       RoadtexWarning, stacklevel=2)
     table = pl.DataFrame(rows, infer_schema_length=None)
@@ -397,16 +417,38 @@ def metadata_cell(name: str, value: Any, file: str) -> Any:
     return json.dumps(value) if isinstance(value, (list, dict)) else str(value)
 
 
+def folder_name_problem(run_id: str) -> str | None:
+    """Why ``run_id`` cannot name a folder on every system (Windows strips a trailing dot or blank
+    and reserves device names, :data:`RESERVED_NAMES`), or None."""
+    if run_id.endswith((".", " ")):
+        return "ends in a dot or a blank, which Windows strips from a folder's name (two runs would share one)"
+    if run_id.split(".")[0].rstrip(" ").lower() in RESERVED_NAMES:
+        return "is a name Windows reserves for a device (con, prn, aux, nul, com1-com9, lpt1-lpt9, with any suffix)"
+    return None
+
+
+def portable_run_id(stem: str) -> str:
+    """A file's name without suffix as a run id every system's folders take
+    (:func:`folder_name_problem`): a trailing dot or blank replaced by '_', '_' added after a
+    reserved device name (``con`` -> ``con_``)."""
+    name = stem.rstrip(". ")
+    name = name + "_" if name != stem or not name else name
+    head, dot, tail = name.partition(".")
+    return f"{head}_{dot}{tail}" if folder_name_problem(name) is not None else name
+
+
 def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
-    """The file's name without suffix; if an earlier file (in sorted order) took it, its path in
-    the folder joined by '_'; if that is taken too (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with
-    the first free suffix ``-2``, ``-3``, ... (deterministic: the files are listed sorted)."""
-    taken = {r["run_id"] for r in rows}
-    if path.stem not in taken:
-        return path.stem
-    joined = "_".join(path.relative_to(root).with_suffix("").parts)
+    """The file's name without suffix (:func:`portable_run_id`); if an earlier file (in sorted order)
+    took it, whatever the case, its path in the folder joined by '_'; if that is taken too
+    (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with the first free suffix ``-2``, ``-3``, ...
+    (deterministic: the files are listed sorted)."""
+    taken = {r["run_id"].casefold() for r in rows}   # A and a name one folder on Windows and macOS
+    own = portable_run_id(path.stem)
+    if own.casefold() not in taken:
+        return own
+    joined = portable_run_id("_".join(path.relative_to(root).with_suffix("").parts))
     candidate, number = joined, 1
-    while candidate in taken:
+    while candidate.casefold() in taken:
         number += 1
         candidate = f"{joined}-{number}"
     return candidate
