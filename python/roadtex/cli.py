@@ -246,7 +246,9 @@ def read_problem(path: str, *, surface: bool = False) -> str | None:
             else:
                 read_profile(path)
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported, not raised
-        return str(exc)
+        name = Path(path).name   # the readers' own errors name it; numpy's MemoryError and the like do not
+        message = str(exc) or type(exc).__name__
+        return message if name in message else f"{name}: {type(exc).__name__}: {message}"
     return None if surface else f"{Path(path).name}: read now"   # a profile listed unreadable reads now
 
 

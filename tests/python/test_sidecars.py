@@ -7,6 +7,7 @@ ProfileFormatError naming the sidecar, or a manifest cell written as text."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -85,3 +86,28 @@ def test_the_record_stored_in_a_csv_or_parquet_file_is_checked_as_a_sidecar(tmp_
         parquet, metadata={"roadtex-profile": record})
     with pytest.raises(ProfileFormatError, match=rf"p\.parquet: damaged roadtex-profile metadata: {words}"):
         roadtex.read_profile(parquet)
+
+
+@pytest.mark.parametrize("key, hint", [("DY", " (did you mean 'dy'?)"), ("dy_mm", " (did you mean 'dy'?)"),
+                                       ("shape", ""), ("Height_Unit", " (did you mean 'height_unit'?)")])
+@pytest.mark.parametrize("kind", ["profile", "surface"])
+def test_an_unknown_sidecar_key_is_refused_naming_the_sidecar_and_the_key(tmp_path: Path, kind: str, key: str,
+                                                                           hint: str) -> None:
+    # {"dx": 0.5e-3, "DY": 1e-3} gave dy = dx = 0.5 mm without a word
+    path = tmp_path / f"{kind}.npy"
+    np.save(path, LINE if kind == "profile" else GRID)
+    (tmp_path / f"{kind}.npy.json").write_text(json.dumps({"dx": 0.5e-3, key: [6, 500] if key == "shape" else 1e-3}),
+                                               encoding="utf-8")
+    with pytest.raises(ProfileFormatError, match=rf"^{kind}\.npy\.json: unknown key\(s\) '{key}'"
+                                                 rf"{re.escape(hint)}; a sidecar holds dx, dy, distance_unit"):
+        (roadtex.read_profile if kind == "profile" else read_surface)(path)
+
+
+def test_every_key_a_sidecar_may_hold_is_read(tmp_path: Path) -> None:
+    np.save(tmp_path / "scan.npy", GRID)
+    (tmp_path / "scan.npy.json").write_text(json.dumps({
+        "dx": 0.5e-3, "dy": 1e-3, "distance_unit": "m", "height_unit": "mm", "metadata": {"site": "S1"},
+        "history": ["scanned"]}), encoding="utf-8")
+    surface = read_surface(tmp_path / "scan.npy")
+    assert (surface.dx, surface.dy, surface.metadata["site"]) == (0.5e-3, 1e-3, "S1")
+    assert np.allclose(surface.heights, GRID * 1e-3) and surface.history[0] == "scanned"

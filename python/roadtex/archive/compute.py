@@ -31,6 +31,7 @@ from roadtex.profiles.plausibility import (
 )
 from roadtex.profiles.profile import Profile
 from roadtex.profiles.readers import read_profile
+from roadtex.profiles.units import unit_factor
 from roadtex.spectra.analysis import time_frequency
 from roadtex.spectra.bands import REFERENCE_PRESSURE, band_table
 from roadtex.spectra.levels import band_levels
@@ -90,7 +91,8 @@ def compute_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, *,
     # judged here, and refused: no warning from the reader that it computes as given
     with judged_once():
         raw = run_stage("read", lambda: read_profile(run["path"], format=run.get("format"), **reading))
-    notes = plausibility_notes(raw.heights, raw.dx, name, raw.metadata, options, given_dx=reading.get("dx"))
+    notes = plausibility_notes(raw.heights, raw.dx, name, raw.metadata, options, given_dx=reading.get("dx"),
+                               given_unit=reading.get("distance_unit"))
     entry = plan.line_entry(run, raw.dx)
     cleaned, cleaning = run_stage("condition", lambda: clean_quietly(raw, options.spike_alpha, name))
     # its own readings (resampling at its own interval is the identity), or averaged down
@@ -224,7 +226,8 @@ ALLOW_IMPLAUSIBLE = "--allow-implausible (ProcessingOptions.allow_implausible) p
 
 
 def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict[str, Any], options: ProcessingOptions,
-                       *, given_dx: object = None, row: str = "segment") -> dict[str, str | None]:
+                       *, given_dx: object = None, given_unit: object = None,
+                       row: str = "segment") -> dict[str, str | None]:
     """Judges a run's heights (m; rows of ``row``) and interval ``dx`` (m) as read from file ``name``
     (``metadata``: the reader's, which says whether the distances' unit is certain): raises the run's
     failure at "read" when they cannot be road texture in metres (a unit mistake, with what to do),
@@ -233,14 +236,15 @@ def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict
     implausible) and ``sampling_note`` (an interval above PLAUSIBLE_MAX_DX, processed), each None
     when there is nothing to say. A file whose distance unit is certain is never refused for its
     interval alone; a file sampled so coarsely that no band of a segment is resolved is refused
-    (nothing could be reported), whatever its unit."""
+    (nothing could be reported), whatever its unit. ``given_dx`` and ``given_unit`` are the dx (m)
+    and distance_unit given for the file, which a refusal quotes."""
     stated = stated_distance_unit(metadata)
     reason = implausible_texture(heights, dx, name, row=row, interval_stated=stated is not None)
     if reason is not None and not options.allow_implausible:
         if given_dx is not None and dx > PLAUSIBLE_MAX_DX:
             what = (f"The interval dx = {given_dx:g} given for it (manifest column dx, --input-dx) must be in "
                     "metres (0.5 mm is 0.5e-3); if it is, distance_unit m for the file (manifest column, "
-                    "--distance-unit) states so.")
+                    "--distance-unit) states so.") + dx_unit_note(given_dx, given_unit)
         else:
             what = ("Give the file's units (manifest columns distance_unit, height_unit; --distance-unit, "
                     "--height-unit) where its header states none; a unit its header states wrongly must be "
@@ -259,6 +263,21 @@ def plausibility_notes(heights: np.ndarray, dx: float, name: str, metadata: dict
             "the file), or longer segments (--segment-length)."))
     return {"implausible_note": None if reason is None else f"{reason} Processed as read (--allow-implausible).",
             "sampling_note": note}
+
+
+def dx_unit_note(given_dx: object, given_unit: object) -> str:
+    """What a refusal of a given dx (m) says of a distance_unit other than m given with it: it is the
+    unit of a file's distances, never of a bare dx (the dx in metres it meant, if it meant that)."""
+    if not isinstance(given_unit, str) or not isinstance(given_dx, (int, float)):
+        return ""
+    try:
+        factor = unit_factor(given_unit, "the distances")
+    except InvalidInputError:
+        return ""
+    if factor == 1.0:
+        return ""
+    return (f" The distance_unit {given_unit!r} given with it is the unit of a file's distances, not of dx (in metres "
+            f"whatever distance_unit says): {given_dx:g} {given_unit} is dx {given_dx * factor:g}.")
 
 
 def with_sampling(bands: pl.DataFrame, statement: pl.DataFrame) -> pl.DataFrame:

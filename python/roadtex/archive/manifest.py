@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import difflib
 import errno
-import io
 import json
 import os
 import warnings
@@ -13,6 +12,7 @@ from typing import Any, Sequence
 
 import polars as pl
 
+from roadtex.archive.manifest_text import blank_rows, canonical_columns, read_text_manifest
 from roadtex.archive.options import MAX_SPEED_KMH
 from roadtex.archive.schemas import MANIFEST_COLUMNS, METADATA_COLUMNS, NOISE_PREFIX, READER_COLUMNS
 from roadtex.archive.store import STATUS_FILE
@@ -25,7 +25,7 @@ from roadtex.profiles.plausibility import (
     judged_once,
     stated_distance_unit,
 )
-from roadtex.profiles.readers import file_head, guess_format, read_profile
+from roadtex.profiles.readers import file_head, guess_format, limits, read_profile
 from roadtex.profiles.readers.text import excerpt
 from roadtex.surfaces.readers import is_surface_file, read_surface
 
@@ -33,6 +33,9 @@ from roadtex.surfaces.readers import is_surface_file, read_surface
 PROFILE_SUFFIXES = {".dat", ".csv", ".tsv", ".txt", ".npy", ".parquet", ".crg", ".x3p"}
 #: The longest run id (UTF-8 bytes): it names the run's output folder (file systems: 255 bytes a name).
 MAX_RUN_ID_BYTES = 200
+#: Names Windows reserves for devices, with or without a suffix (``con``, ``con.txt``; any case): no
+#: folder can have them there, so no run id may (an archive moves between machines).
+RESERVED_NAMES = {"con", "prn", "aux", "nul", *(f"{d}{i}" for d in ("com", "lpt") for i in range(1, 10))}
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
@@ -142,7 +145,7 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     if isinstance(source, pl.DataFrame):
         table = source
         base = Path(base_dir) if base_dir is not None else Path.cwd()
-        where, text = "manifest (a DataFrame)", False
+        where, text, notes = "manifest (a DataFrame)", False, []
     else:
         manifest_path = Path(source)
         base = Path(base_dir) if base_dir is not None else manifest_path.resolve().parent
@@ -150,21 +153,39 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
         if not manifest_path.is_file():
             raise ManifestError(f"{where} does not exist or is not a file")
         text = manifest_path.suffix.lower() != ".parquet"
+        notes: list[str] = []
         try:
             if not text:
+                rows, columns = limits.parquet_size(manifest_path, str(manifest_path))
+                if rows * columns > limits.MAX_POINTS:   # before polars allocates it: it aborts when it cannot
+                    raise ManifestError(f"{where} declares {rows:,} rows x {columns} columns, beyond the "
+                                        f"{limits.MAX_POINTS:,} cells a manifest may hold (refused unread)")
                 table = pl.read_parquet(manifest_path)
             else:
-                table = read_text_manifest(manifest_path)
+                table = read_text_manifest(manifest_path, notes)
         except ManifestError:
             raise
         except Exception as exc:  # polars raises several exception types for malformed files
             raise ManifestError(f"cannot read {where}: {exc}") from None
 
+    table = canonical_columns(table, where, extra_columns)   # "Path", "Run ID": path, run_id
+    # wholly empty rows (a blank line at the end, a spreadsheet's cleared rows ";;") are no runs;
+    # the others keep their row numbers in the messages
+    empty = blank_rows(table)
+    rows_at = [index for index, blank in enumerate(empty.to_list()) if not blank]
+    if len(rows_at) < table.height:
+        notes.append(f"{table.height - len(rows_at)} wholly empty row(s) left out (data row(s) "
+                     f"{', '.join(str(i + 1) for i in range(table.height) if empty[i])[:80]})")
+        table = table.filter(~empty)
+
     def cell(index: int, column: str) -> str:
         """Where a cell is: the manifest, its 1-based data row (and line, in a text file) and column."""
-        line = f", line {index + 2} of the file" if text else ""
-        return f"{where}, data row {index + 1} (1-based, header not counted{line}), column {column!r}"
+        row = rows_at[index]
+        line = f", line {row + 2} of the file" if text else ""
+        return f"{where}, data row {row + 1} (1-based, header not counted{line}), column {column!r}"
 
+    for note in notes:   # said once, as the manifest is read (roadtex process shows it)
+        warnings.warn(f"{where}: {note}", RoadtexWarning, stacklevel=2)
     if "path" not in table.columns:
         raise ManifestError(f"{where} has no 'path' column (columns: {', '.join(table.columns) or 'none'})")
     known = {**MANIFEST_COLUMNS, **READER_COLUMNS}
@@ -216,6 +237,8 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
             raise ManifestError(f"{cell(bad_marks['__row__'][0], 'decimal')}: must be '.' or ',', "
                                 f"found {bad_marks['decimal'][0]!r}")
     table = table.with_columns(casts)
+    # blanks around a path or run id (a spreadsheet's "a.csv ") are no part of it
+    table = table.with_columns(pl.col(name).str.strip_chars().replace("", None) for name in ("path", "run_id"))
     if table["path"].null_count():
         first = int(table["path"].is_null().arg_max() or 0)
         raise ManifestError(f"{cell(first, 'path')}: empty; every run needs a file "
@@ -237,66 +260,36 @@ def read_manifest(source: str | os.PathLike[str] | pl.DataFrame, *, base_dir: st
     # file_sha256 refuse it: /dev/zero never ends).
     run_ids = [rid if rid else Path(p).stem for rid, p in zip(table["run_id"].to_list(), paths)]
     seen: dict[str, int] = {}
+    folded: dict[str, int] = {}   # run ids ignoring case: one folder where case is not told apart
     for index, rid in enumerate(run_ids):
         if rid in seen:
-            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {seen[rid] + 1}; "
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} appears twice (also data row {rows_at[seen[rid]] + 1}; "
                                 "a run id left empty is the file name without suffix); give each run a unique run_id")
         if not rid or "/" in rid or "\\" in rid or rid in (".", ".."):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} cannot name an output folder")
         if any(ord(c) < 32 or ord(c) == 127 for c in rid):
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} contains a control character (a NUL "
                                 "byte, a tab or a line break): it cannot name an output folder")
+        problem = folder_name_problem(rid)
+        if problem is not None:
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:60]!r} {problem}; give the run another run_id")
+        if rid.casefold() in folded:
+            other = folded[rid.casefold()]
+            raise ManifestError(f"{cell(index, 'run_id')}: run id {rid!r} and {run_ids[other]!r} (data row "
+                                f"{rows_at[other] + 1}) differ only in case: they name one folder on Windows and macOS "
+                                "(an archive moves between machines); give each run a unique run_id")
         if len(rid.encode("utf-8")) > MAX_RUN_ID_BYTES:
             raise ManifestError(f"{cell(index, 'run_id')}: run id {rid[:40]!r}... is {len(rid.encode('utf-8'))} bytes "
                                 f"long; at most {MAX_RUN_ID_BYTES} (it names the run's output folder, and file systems "
                                 "allow 255 bytes a name)")
         seen[rid] = index
+        folded[rid.casefold()] = index
     # a surface file listed without a format (a hand-written manifest: a 2-D .npy with dx and dy) is
     # a surface run, as roadtex manifest would have marked it
     formats = [fmt if fmt is not None or not is_surface_file(path) else "surface"
                for fmt, path in zip(table["format"].to_list(), paths)]
     return table.with_columns(pl.Series("path", paths), pl.Series("run_id", run_ids),
                               pl.Series("format", formats, dtype=pl.String))
-
-
-def read_text_manifest(path: Path) -> pl.DataFrame:
-    """A CSV or TSV manifest as strings, as spreadsheets save it: comma, tab or (European Excel)
-    semicolon separated, Excel's ``sep=;`` line, a byte-order mark. With semicolons, a decimal
-    comma in the numeric columns (``speed_kmh``, ``dx``, ``noise_1000``: ``0,5``) is a decimal
-    point: every number is then read as written."""
-    raw = path.read_bytes()
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):   # UTF-16 with its byte-order mark (Excel's "Unicode text")
-        try:
-            raw = raw.decode("utf-16").encode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise ManifestError(f"manifest {path}: starts as UTF-16 but does not decode as such ({exc.reason} at byte "
-                                f"{exc.start}); save it as UTF-8 CSV") from None
-    elif b"\x00" in raw[:4096]:
-        raise ManifestError(f"manifest {path}: contains NUL bytes, so it is not UTF-8 text (UTF-16 without a "
-                            "byte-order mark, or not a text file); save it as UTF-8 CSV")
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    lines = raw.split(b"\n", 2)
-    first = lines[0].strip()
-    hint = first.lower().startswith(b"sep=") and len(first) == 5
-    if hint:
-        raw = raw[len(lines[0]) + 1:]
-        header = lines[1] if len(lines) > 1 else b""
-    else:
-        header = lines[0]
-    if hint:
-        separator = first[4:5].decode("latin-1")
-    elif path.suffix.lower() in (".tsv", ".tab") or (b"\t" in header and b"," not in header):
-        separator = "\t"
-    elif b";" in header and b"," not in header:
-        separator = ";"
-    else:
-        separator = ","
-    table = pl.read_csv(io.BytesIO(raw), separator=separator, infer_schema=False)
-    if separator == ";":
-        numeric = [c for c in table.columns if c in ("speed_kmh", "dx", "dy", "start") or c.startswith(NOISE_PREFIX)]
-        table = table.with_columns(pl.col(c).str.replace(",", ".", literal=True) for c in numeric)
-    return table
 
 
 #: Manifest columns users write for what is a job option, not a per-run column.
@@ -391,10 +384,17 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                 if name in metadata and metadata[name] is not None:
                     row[name] = metadata_cell(name, metadata[name], path.name)
         rows.append(row)
+    unportable = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
+                  if portable_run_id(path.stem) != path.stem]
+    if unportable:
+        warnings.warn(f"{len(unportable)} file name(s) cannot name a run's folder on Windows (a device name such as "
+                      "con or nul, or a trailing dot or blank), so their run ids differ from them: "
+                      f"{'; '.join(unportable[:5])}{' ...' if len(unportable) > 5 else ''}", RoadtexWarning, stacklevel=2)
     renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
-               if row["run_id"] != path.stem]
+               if row["run_id"] != portable_run_id(path.stem)]
     if renamed:
-        warnings.warn(f"{len(renamed)} file(s) share a name with another file of the folder, so their run ids are "
+        warnings.warn(f"{len(renamed)} file(s) share a name (whatever the case) with another file of the folder, so "
+                      "their run ids are "
                       f"made from their paths: {'; '.join(renamed[:5])}{' ...' if len(renamed) > 5 else ''}",
                       RoadtexWarning, stacklevel=2)
     table = pl.DataFrame(rows, infer_schema_length=None)
@@ -417,16 +417,38 @@ def metadata_cell(name: str, value: Any, file: str) -> Any:
     return json.dumps(value) if isinstance(value, (list, dict)) else str(value)
 
 
+def folder_name_problem(run_id: str) -> str | None:
+    """Why ``run_id`` cannot name a folder on every system (Windows strips a trailing dot or blank
+    and reserves device names, :data:`RESERVED_NAMES`), or None."""
+    if run_id.endswith((".", " ")):
+        return "ends in a dot or a blank, which Windows strips from a folder's name (two runs would share one)"
+    if run_id.split(".")[0].rstrip(" ").lower() in RESERVED_NAMES:
+        return "is a name Windows reserves for a device (con, prn, aux, nul, com1-com9, lpt1-lpt9, with any suffix)"
+    return None
+
+
+def portable_run_id(stem: str) -> str:
+    """A file's name without suffix as a run id every system's folders take
+    (:func:`folder_name_problem`): a trailing dot or blank replaced by '_', '_' added after a
+    reserved device name (``con`` -> ``con_``)."""
+    name = stem.rstrip(". ")
+    name = name + "_" if name != stem or not name else name
+    head, dot, tail = name.partition(".")
+    return f"{head}_{dot}{tail}" if folder_name_problem(name) is not None else name
+
+
 def unique_run_id(path: Path, root: Path, rows: list[dict[str, Any]]) -> str:
-    """The file's name without suffix; if an earlier file (in sorted order) took it, its path in
-    the folder joined by '_'; if that is taken too (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with
-    the first free suffix ``-2``, ``-3``, ... (deterministic: the files are listed sorted)."""
-    taken = {r["run_id"] for r in rows}
-    if path.stem not in taken:
-        return path.stem
-    joined = "_".join(path.relative_to(root).with_suffix("").parts)
+    """The file's name without suffix (:func:`portable_run_id`); if an earlier file (in sorted order)
+    took it, whatever the case, its path in the folder joined by '_'; if that is taken too
+    (``a/x.csv``, ``a_x.csv``, ``x.csv``), that with the first free suffix ``-2``, ``-3``, ...
+    (deterministic: the files are listed sorted)."""
+    taken = {r["run_id"].casefold() for r in rows}   # A and a name one folder on Windows and macOS
+    own = portable_run_id(path.stem)
+    if own.casefold() not in taken:
+        return own
+    joined = portable_run_id("_".join(path.relative_to(root).with_suffix("").parts))
     candidate, number = joined, 1
-    while candidate in taken:
+    while candidate.casefold() in taken:
         number += 1
         candidate = f"{joined}-{number}"
     return candidate

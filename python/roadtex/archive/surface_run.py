@@ -143,7 +143,7 @@ def compute_surface_run(run: dict[str, Any], plan: JobPlan | ProcessingOptions, 
     if not finite.size:
         raise RunFailure("read", InvalidInputError(f"{name}: no valid reading"))
     notes = plausibility_notes(finite[None, :], raw.dx, name, raw.metadata, options, given_dx=reader.get("dx"),
-                               row="surface")
+                               given_unit=reader.get("distance_unit"), row="surface")
     across = implausible_across(raw.dy, raw.shape[0], name, tile_length=options.segment_length)
     if across is not None and not options.allow_implausible:   # rows 1 m apart ran past 100 s (issue 38)
         raise RunFailure("read", InvalidInputError(f"{across} If the file is right as read, {ALLOW_IMPLAUSIBLE}."))

@@ -23,7 +23,8 @@ from roadtex.profiles.plausibility import (
 from roadtex.profiles.profile import MAX_MAGNITUDE
 from roadtex.profiles.readers import DX_CONFLICT, file_head, guess_format
 from roadtex.profiles.readers.delimited import is_number, sniff_decimal, sniff_separator
-from roadtex.profiles.readers.npy import load_numeric_npy, read_sidecar
+from roadtex.profiles.readers.limits import check_parquet_points, check_points
+from roadtex.profiles.readers.npy import load_numeric_npy, npy_header, read_sidecar
 from roadtex.profiles.readers.text import (
     DROPOUT_TOKENS,
     bare_interval_unit,
@@ -88,7 +89,7 @@ def is_surface_file(path: str | Path) -> bool:
         if fmt in ("crg", "x3p"):
             return True
         if fmt == "npy":
-            shape = np.load(file, mmap_mode="r", allow_pickle=False).shape
+            shape, _ = npy_header(file, file.name)   # the header alone: no 16 GB map of a sparse file
             return len(shape) == 2 and shape[0] > 1 and shape[1] > 2
         if fmt == "parquet":
             names = pl.read_parquet_schema(file).names()
@@ -295,6 +296,7 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
     """A Parquet or CSV table of (x, y, z) readings on a grid; see :func:`read_surface`."""
     try:
         if fmt == "parquet":
+            check_parquet_points(path, name)   # before polars allocates it: it aborts the process when it cannot
             frame = pl.read_parquet(path)
         else:
             lines, _ = first_lines(path.read_bytes()[:65536].removeprefix(b"\xef\xbb\xbf"), 50)
@@ -384,6 +386,7 @@ def read_long_table(path: Path, name: str, fmt: str, options: dict) -> Surface:
     if shape[0] * shape[1] > 50 * x.size:
         raise ProfileFormatError(f"{name}: the positions span a grid of {shape[0]} x {shape[1]} nodes for only "
                                  f"{x.size} readings: not a grid")
+    check_points(name, shape[0] * shape[1], f"its positions' grid of {shape[0]:,} x {shape[1]:,} nodes")
     flat = iy * shape[1] + ix
     if np.unique(flat).size != flat.size:
         raise ProfileFormatError(f"{name}: duplicate (x, y) positions: a grid has one reading per node")

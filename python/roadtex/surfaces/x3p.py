@@ -53,6 +53,7 @@ import numpy as np
 from defusedxml import DefusedXmlException
 
 from roadtex.errors import ProfileFormatError
+from roadtex.profiles.readers.limits import MAX_POINTS as LIMIT
 
 #: X3P Z data types and their numpy types (little-endian).
 X3P_TYPES = {"I": "<i2", "L": "<i4", "F": "<f4", "D": "<f8"}
@@ -61,9 +62,10 @@ ZIP_MAGIC = b"PK\x03\x04"
 #: The largest main.xml read (bytes). The record of a measurement is a few kB (inline data, the
 #: one thing that makes it big, is not supported); a larger one is refused before it is inflated.
 MAX_MAIN_XML_BYTES = 4 * 2**20
-#: The most points an X3P surface may declare: 2**27 (134 million; 1 GiB as float64 heights, a
-#: 4 m x 33 m lane at 1 mm). A larger grid is refused before its data is inflated: split the scan.
-MAX_POINTS = 2**27
+#: The most points an X3P surface may declare: :data:`roadtex.profiles.readers.limits.MAX_POINTS`,
+#: every file's limit (2**27, 134 million; 1 GiB as float64 heights, a 4 m x 33 m lane at 1 mm). A
+#: larger grid is refused before its data is inflated: split the scan.
+MAX_POINTS = LIMIT
 #: Deflate inflates at most 1032 times (a 258-byte match in at best 2 bits): a member that claims
 #: more is damaged or forged (a zip bomb's central directory), refused unread.
 DEFLATE_MAX_RATIO = 1032

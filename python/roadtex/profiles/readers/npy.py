@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -11,6 +12,7 @@ import numpy as np
 from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.limits import check_points
 from roadtex.profiles.readers.text import ReadResult, bare_interval_unit
 from roadtex.profiles.units import unit_factor
 
@@ -58,11 +60,17 @@ def npy_header(path: Path, name: str) -> tuple[tuple[int, ...], np.dtype]:
 
 
 def load_numeric_npy(path: Path, name: str) -> np.ndarray:
-    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles) and its header's
-    shape fits in the file (:func:`npy_header`)."""
+    """The array of a ``.npy`` file, refused unless it holds numbers (no pickles), its header's
+    shape fits in the file (:func:`npy_header`) and declares at most
+    :data:`~roadtex.profiles.readers.limits.MAX_POINTS` values (a sparse file can hold 16 GB of
+    zeros in a few kB of disk): both checked before the array is read."""
     shape, dtype = npy_header(path, name)
     if dtype.kind not in "fiu":
         raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {dtype}")
+    count = 1
+    for length in shape:
+        count *= int(length)
+    check_points(name, count, f"its .npy header's shape {shape}")
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -97,6 +105,10 @@ def read_sidecar(path: Path, options: dict,
 
 #: The largest sidecar read (bytes): spacings, units, metadata and a history are a few kB.
 MAX_SIDECAR_BYTES = 2**20
+#: The keys a sidecar may hold: the spacings along and across the road (m), the units of the
+#: distances and heights, the metadata and the history. Any other is refused (a ``"DY"`` or
+#: ``"dy_mm"`` was ignored without a word, and dy taken as dx).
+SIDECAR_KEYS = ("dx", "dy", "distance_unit", "height_unit", "metadata", "history")
 
 
 def load_sidecar(sidecar: Path) -> dict:
@@ -114,7 +126,18 @@ def load_sidecar(sidecar: Path) -> dict:
         text = sidecar.read_text(encoding="utf-8")
     except (UnicodeDecodeError, OSError) as exc:
         raise damaged(str(exc)[:200]) from None
-    return stored_record(text, damaged)
+    stored = stored_record(text, damaged)
+    unknown = [key for key in stored if key not in SIDECAR_KEYS]
+    if unknown:
+        hints = []
+        for key in unknown[:5]:
+            close = difflib.get_close_matches(str(key).lower(), SIDECAR_KEYS, n=1, cutoff=0.5)
+            hints.append(f"{str(key)[:40]!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+        more = f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""
+        raise ProfileFormatError(f"{sidecar.name}: unknown key(s) {', '.join(hints)}{more}; a sidecar holds "
+                                 f"{', '.join(SIDECAR_KEYS)} (dx and dy in m; the array's shape is its own): "
+                                 "correct or remove the key")
+    return stored
 
 
 def stored_record(text: str, damaged: Callable[[str], ProfileFormatError]) -> dict:

@@ -11,11 +11,15 @@ from roadtex.errors import ProfileFormatError
 from roadtex.profiles.plausibility import set_distance_unit
 from roadtex.profiles.readers.delimited import ROADTEX_TAG
 from roadtex.profiles.readers.grid import grid_positions
+from roadtex.profiles.readers.limits import check_parquet_points
 from roadtex.profiles.readers.npy import stored_record
 from roadtex.profiles.readers.text import DISTANCE_NAMES, HEIGHT_NAMES, ReadResult, column_unit, pick_column, stated_unit
 
 
 def read_parquet(path: Path, name: str, options: dict) -> ReadResult:
+    """A Parquet profile's positions (m), heights (m), metadata, history and dx (m, or None); its
+    declared size is checked first (:func:`~roadtex.profiles.readers.limits.check_parquet_points`)."""
+    check_parquet_points(path, name)   # before polars allocates it: it aborts the process when it cannot
     try:
         frame = pl.read_parquet(path)
         stored_meta = pl.read_parquet_metadata(path)
