@@ -225,3 +225,13 @@ def test_a_row_with_an_extra_number_is_refused_naming_its_line(tmp_path: Path) -
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(ProfileFormatError, match=r"extra\.csv: .*line 121 is not a row of 2 numbers"):
         read(path)
+
+
+def test_a_semicolon_manifest_with_a_decimal_comma_dropout_value(tmp_path: Path) -> None:
+    """A European manifest writes the drop-out code as it writes every number: -99,9."""
+    from roadtex.archive.manifest import read_manifest
+    (tmp_path / "a.csv").write_text("distance (mm);height (mm)\n0;1\n")
+    (tmp_path / "manifest.csv").write_text("path;dropout_value;speed_kmh\na.csv;-99,9;80\n")
+    runs = read_manifest(tmp_path / "manifest.csv")
+    rows = runs.to_dicts() if hasattr(runs, "to_dicts") else runs
+    assert rows[0]["dropout_value"] == pytest.approx(-99.9)

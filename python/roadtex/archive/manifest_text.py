@@ -99,7 +99,8 @@ def read_text_manifest(path: Path, notes: list[str] | None = None) -> pl.DataFra
     table.columns = [name for name in names if name]
     if separator == ";":
         table = canonical_columns(table, f"manifest {path}")
-        numeric = [c for c in table.columns if c in ("speed_kmh", "dx", "dy", "start") or c.startswith(NOISE_PREFIX)]
+        numeric = [c for c in table.columns
+                   if c in ("speed_kmh", "dx", "dy", "start", "dropout_value") or c.startswith(NOISE_PREFIX)]
         table = table.with_columns(pl.col(c).str.replace(",", ".", literal=True) for c in numeric)
     return table
 
