@@ -52,3 +52,16 @@ def test_the_manifest_command_makes_portable_ids_from_file_names(tmp_path: Path)
     messages = " | ".join(str(w.message) for w in said)
     assert "cannot name a run's folder on Windows" in messages and "con.csv -> con_" in messages
     assert "share a name (whatever the case)" in messages and "sub/site.csv -> sub_site" in messages
+
+
+@pytest.mark.parametrize("run_id", ["a:b", "lane<1>", 'say"so', "x|y", "what?", "star*"])
+def test_characters_windows_refuses_in_a_name_are_refused(tmp_path: Path, run_id: str) -> None:
+    with pytest.raises(ManifestError, match=r"data row 2 .*run id .* no folder name on Windows may hold"):
+        read_manifest(two_runs(tmp_path, "good", run_id))
+
+
+def test_the_manifest_command_replaces_them_in_ids_from_file_names(tmp_path: Path) -> None:
+    write_csv(tmp_path / "A1:km 3+200.csv")   # a name Linux takes and Windows does not
+    with pytest.warns(RoadtexWarning, match=r"A1:km 3\+200.csv -> A1_km 3\+200"):
+        table = build_manifest(tmp_path)
+    assert table["run_id"].to_list() == ["A1_km 3+200"]

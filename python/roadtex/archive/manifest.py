@@ -36,6 +36,8 @@ MAX_RUN_ID_BYTES = 200
 #: Names Windows reserves for devices, with or without a suffix (``con``, ``con.txt``; any case): no
 #: folder can have them there, so no run id may (an archive moves between machines).
 RESERVED_NAMES = {"con", "prn", "aux", "nul", *(f"{d}{i}" for d in ("com", "lpt") for i in range(1, 10))}
+#: Characters no file or folder name on Windows may hold (besides / and \\, refused everywhere).
+WINDOWS_FORBIDDEN = frozenset('<>:"|?*')
 #: Suffixes of compressed files, which no reader opens: :func:`unlisted_files` says so.
 COMPRESSED_SUFFIXES = {".gz", ".zip", ".bz2", ".xz", ".7z", ".zst", ".rar", ".tgz"}
 
@@ -388,7 +390,7 @@ def build_manifest(folder: str | os.PathLike[str], *, recursive: bool = True, re
                   if portable_run_id(path.stem) != path.stem]
     if unportable:
         warnings.warn(f"{len(unportable)} file name(s) cannot name a run's folder on Windows (a device name such as "
-                      "con or nul, or a trailing dot or blank), so their run ids differ from them: "
+                      "con or nul, a trailing dot or blank, or one of <>:\"|?*), so their run ids differ from them: "
                       f"{'; '.join(unportable[:5])}{' ...' if len(unportable) > 5 else ''}", RoadtexWarning, stacklevel=2)
     renamed = [f"{path.relative_to(root).as_posix()} -> {row['run_id']}" for path, row in zip(files, rows)
                if row["run_id"] != portable_run_id(path.stem)]
@@ -418,8 +420,12 @@ def metadata_cell(name: str, value: Any, file: str) -> Any:
 
 
 def folder_name_problem(run_id: str) -> str | None:
-    """Why ``run_id`` cannot name a folder on every system (Windows strips a trailing dot or blank
-    and reserves device names, :data:`RESERVED_NAMES`), or None."""
+    """Why ``run_id`` cannot name a folder on every system (Windows strips a trailing dot or blank,
+    refuses the characters of :data:`WINDOWS_FORBIDDEN` and reserves device names,
+    :data:`RESERVED_NAMES`), or None."""
+    forbidden = sorted({c for c in run_id if c in WINDOWS_FORBIDDEN})
+    if forbidden:
+        return f"holds {' '.join(forbidden)}, which no folder name on Windows may hold"
     if run_id.endswith((".", " ")):
         return "ends in a dot or a blank, which Windows strips from a folder's name (two runs would share one)"
     if run_id.split(".")[0].rstrip(" ").lower() in RESERVED_NAMES:
@@ -430,7 +436,8 @@ def folder_name_problem(run_id: str) -> str | None:
 def portable_run_id(stem: str) -> str:
     """A file's name without suffix as a run id every system's folders take
     (:func:`folder_name_problem`): a trailing dot or blank replaced by '_', '_' added after a
-    reserved device name (``con`` -> ``con_``)."""
+    reserved device name (``con`` -> ``con_``), each character Windows refuses in a name by '_'."""
+    stem = "".join("_" if c in WINDOWS_FORBIDDEN else c for c in stem)
     name = stem.rstrip(". ")
     name = name + "_" if name != stem or not name else name
     head, dot, tail = name.partition(".")
