@@ -361,6 +361,19 @@ INTERPOLANT_WORDS = {"linear": "joined linearly", "pchip": "joined by monotone c
                      "bandlimited": "joined band-limited"}
 
 
+def job_verdict(results: Results) -> tuple[bool | None, float]:
+    """Whether every run is within the budget, and the worst estimated error (dB) of any run: from
+    runs.parquet's ``within_budget`` and ``worst_level_error_db``, line and surface runs alike (the
+    plan's verdict is its line pilots' only); the plan's where the table has none."""
+    plan = results.plan
+    runs = results.runs
+    if "within_budget" in runs.columns and runs["within_budget"].drop_nulls().len():
+        worst = runs["worst_level_error_db"].drop_nulls().drop_nans() if "worst_level_error_db" in runs.columns else None
+        return (bool(runs["within_budget"].drop_nulls().all()),
+                float(worst.max()) if worst is not None and worst.len() else float("nan"))
+    return plan.get("within_budget"), float(plan.get("worst_error_db") or float("nan"))
+
+
 def budget_summary(results: Results) -> str:
     """The section's paragraphs (HTML): budget, the setting used (dx, k and its model grid, tol),
     the verdict, the speed-up against the reference and the pilots' measured time; what the
@@ -371,7 +384,7 @@ def budget_summary(results: Results) -> str:
         return f"<p>{html.escape(reason or 'No error budget on record.')}</p>"
     shortest, longest = noise_wavelength_range()
     (f_low, f_high), (v_low, v_high) = NOISE_FREQUENCY_RANGE, NOISE_SPEED_RANGE_KMH
-    within = plan.get("within_budget")
+    within, worst = job_verdict(results)
     surfaces = ("; surface runs on their own model grid (k times finer than their spacings each way) and the "
                 "tolerance their own pilot chose (runs.parquet refine, refine_across, model_dx, model_dy, "
                 "tol_used)" if results.surface_bands is not None else "")
@@ -386,7 +399,7 @@ def budget_summary(results: Results) -> str:
         f"model on a grid k times finer than the data's, the readings {joined}, texture levels the data's "
         f"({html.escape(str(plan.get('source', '')))}){surfaces}. "
         f"Within budget: {'yes' if within else 'no'}; worst estimated error in the budget bands "
-        f"{plain(plan.get('worst_error_db') or float('nan'))} dB."]
+        f"{plain(worst)} dB (every run, line and surface: runs.parquet within_budget, worst_level_error_db)."]
     if plan.get("speedup") is not None:
         reference = "the file's sampling on the finest model grid, tightest tolerance"
         if results.pilot is not None and results.pilot.height:
@@ -406,7 +419,7 @@ def budget_summary(results: Results) -> str:
     paragraphs = [f"<p>{''.join(text)}</p>"]
     if within is False:
         floor, group = floor_db(results)
-        floor = plan.get("worst_error_db") if floor is None else floor
+        floor = (plan.get("worst_error_db") or worst) if floor is None else floor
         where = f" (group {html.escape(group)})" if group else ""
         paragraphs.append(
             f'<p class="warning"><strong>The budget of {plain(plan["budget_db"])} dB could not be met by any '

@@ -136,8 +136,9 @@ LEVELS = ("enveloped_level", "pressure_level", "texture_level")
 
 
 def octave_table(results: Results) -> pl.DataFrame:
-    """Per run and E, the octave-band levels (third octaves n-1, n, n+1 summed in power into octave n)
-    of the enveloped profile and the pressure, energetically averaged over the run's segments.
+    """Per run and E, the octave-band levels (third octaves n-1, n, n+1 of one row summed in power into
+    octave n) of the enveloped profile and the pressure, energetically averaged over the run's rows
+    (segments; a surface run's tiles, analysed lines and both models, as with octave bands).
 
     Only reported bands enter (:func:`~roadtex.report.data.read_reported_bands`); an octave is kept
     where all three of its third octaves have a level. Levels in dB re 1 µm (texture) and dB re 1 Pa
@@ -150,9 +151,11 @@ def octave_table(results: Results) -> pl.DataFrame:
         octave_of = {b + d: b for b in OCTAVE_BANDS for d in (-1, 0, 1)}
         bands = bands.with_columns(pl.col("band").replace_strict(octave_of, default=None).alias("octave"))
         # An octave needs all three of its third octaves reported, each with a level (a null level
-        # would otherwise drop out of the power sum silently).
+        # would otherwise drop out of the power sum silently), of one row: a surface run's segment
+        # holds a row per model and analysed line, each its own three bands
+        rows = [c for c in ("model", "line") if c in bands.columns]
         complete = bands.filter(pl.col("octave").is_not_null()).group_by(
-            "run_id", "segment", "youngs_modulus", "octave").agg(
+            "run_id", *rows, "segment", "youngs_modulus", "octave").agg(
             pl.len().alias("parts"),
             *[pl.when(pl.col(c).is_not_nan().sum() == 3).then(10.0 * (10.0 ** (pl.col(c) / 10.0)).sum().log10())
               .otherwise(None).alias(c) for c in LEVELS])
