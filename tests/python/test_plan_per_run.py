@@ -137,12 +137,29 @@ def test_a_rerun_with_nothing_new_calls_no_solver_and_no_pilot(small_archive, mo
 
 def test_a_run_added_to_a_known_group_reuses_its_pilot(small_archive, monkeypatch: pytest.MonkeyPatch) -> None:
     path, out, rows = small_archive
+    # a group of more runs than its pilot reads (it speaks for runs it never tried, and says so)
+    rows = rows + [(f"r{i}", roadtex.write_profile(roadtex.synthetic_pavement("dense_asphalt", 0.6, 0.5e-3, seed=i),
+                                                   path.parent / f"r{i}.parquet")) for i in (2, 3)]
     job(manifest(rows, path), out, SMALL)
     monkeypatch.setattr(planning, "choose_setting", lambda *a, **k: pytest.fail("the pilot ran again"))
     added = roadtex.write_profile(roadtex.synthetic_pavement("dense_asphalt", 0.6, 0.5e-3, seed=9),
                                   path.parent / "added.parquet")
     summary = job(manifest([*rows, ("added", added)], path), out, SMALL)
-    assert (summary.skipped, summary.processed) == (2, 1)
+    assert (summary.skipped, summary.processed) == (4, 1)
+
+
+def test_a_group_its_pilot_read_whole_is_piloted_again_when_it_grows(small_archive) -> None:
+    """Its statements were of its runs' own rows, not extrapolated to runs it never tried (0.5.15)."""
+    path, out, rows = small_archive
+    job(manifest(rows, path), out, SMALL)
+    added = roadtex.write_profile(roadtex.synthetic_pavement("dense_asphalt", 0.6, 0.5e-3, seed=9),
+                                  path.parent / "added.parquet")
+    calls = []
+    real = planning.choose_setting
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(planning, "choose_setting", lambda *a, **k: calls.append(k["sampled"]) or real(*a, **k))
+        job(manifest([*rows, ("added", added)], path), out, SMALL)
+    assert calls == [False]   # three runs, all read: made again, and a whole group again
 
 
 @pytest.mark.parametrize("change", ["options", "pilot input", "damaged record"])

@@ -147,7 +147,8 @@ def process_locked(table: pl.DataFrame, out: Path, options: ProcessingOptions, *
         with warnings.catch_warnings():
             if options.allow_implausible:   # asked for: the pilot's solves do not warn either
                 warnings.simplefilter("ignore", ImplausibleParameterWarning)
-            plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads, out=out)
+            plan, study = plan_job([run for run in runs if not is_surface_run(run)], options, threads=threads, out=out,
+                                   reuse=not force)
         planned = True
         progress = Progress(len(runs), sum(sizes), quiet)
         flags = {"force": force, "retry_failed": retry_failed}

@@ -1,5 +1,6 @@
 """The plan kept with the job: each group's pilots saved in the output folder (``OUT/plan/``), so that
-a rerun with nothing new, or with runs added to a known group, does no pilot work.
+a rerun with nothing new, or with runs added to a known group whose pilot already spoke for runs it
+never tried (a group of more runs than it reads), does no pilot work.
 
 A kept group is trusted again only when everything its pilots depend on is the same: the options
 that change a pilot's answer and the roadtex version (:func:`pilot_key`), the group's name, the runs
@@ -43,8 +44,10 @@ class KeptGroup:
         pilots: one per sampling interval among the runs read.
         failed: pilot name -> why it could not run.
         unread: run id -> why the sample could not use it.
-        inputs: run id -> (path, SHA-256) of every run the pilots read.
+        inputs: run id -> (path, digest) of every run the pilots tried, read or found unreadable
+            (:func:`roadtex.archive.planning.input_digest`: its file's bytes and reader options).
         study: the pilots' study rows (pilot.parquet).
+        members: the runs of the group when its pilots were made.
     """
 
     name: str
@@ -53,6 +56,7 @@ class KeptGroup:
     unread: dict[str, str] = field(default_factory=dict)
     inputs: dict[str, tuple[str, str]] = field(default_factory=dict)
     study: pl.DataFrame = field(default_factory=pl.DataFrame)
+    members: int = 0
 
 
 def pilot_key(options: ProcessingOptions) -> str:
@@ -89,7 +93,7 @@ def keep_group(out: Path, key: str, group: KeptGroup) -> None:
     write_atomically(study_path, lambda p: group.study.write_parquet(p))
     record = {"pilot_key": key, "group": group.name, "pilots": [encoded(asdict(p)) for p in group.pilots],
               "failed": group.failed, "unread": group.unread,
-              "inputs": {run_id: list(pair) for run_id, pair in group.inputs.items()},
+              "inputs": {run_id: list(pair) for run_id, pair in group.inputs.items()}, "members": group.members,
               "study_sha256": file_sha256(study_path)}
     body = json.dumps(record, sort_keys=True, allow_nan=False)
     payload = {"record": record, "sha256": hashlib.sha256(body.encode()).hexdigest()}
@@ -127,7 +131,7 @@ def read_group(path: Path, key: str) -> KeptGroup | None:
         return KeptGroup(name=str(record["group"]), pilots=pilots, failed=dict(record["failed"]),
                          unread=dict(record["unread"]),
                          inputs={run_id: (str(pair[0]), str(pair[1])) for run_id, pair in record["inputs"].items()},
-                         study=pl.read_parquet(study_path))
+                         study=pl.read_parquet(study_path), members=int(record["members"]))
     except (OSError, ValueError, KeyError, TypeError, IndexError, pl.exceptions.PolarsError):
         return None
 

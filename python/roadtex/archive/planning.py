@@ -4,6 +4,8 @@ job when nothing they depend on changed (:mod:`roadtex.archive.kept_pilots`)."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import warnings
 from pathlib import Path
 from typing import Any
@@ -75,7 +77,7 @@ def readable(runs: list[dict[str, Any]], options: ProcessingOptions, count: int,
 
 
 def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads: int | None = None,
-             out: Path | None = None) -> tuple[JobPlan, pl.DataFrame]:
+             out: Path | None = None, reuse: bool = True) -> tuple[JobPlan, pl.DataFrame]:
     """The job's plan for the line runs ``runs`` (manifest rows), and the pilots' study rows (one per
     group, setting and band; for pilot.parquet and the report's speed-against-error figure).
 
@@ -83,7 +85,8 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     :data:`PILOT_RUNS_PER_GROUP` of its runs spread over it, and measures one pilot per sampling
     interval among them. With ``out``, a group whose pilot that folder kept (same options, same
     roadtex, the pilot's files unchanged and still the group's) reuses it without reading or solving
-    anything, and each pilot made is kept there for the next job.
+    anything, and each pilot made is kept there for the next job; ``reuse`` False (``--force``) makes
+    every pilot again.
     """
     if not runs:   # surface runs only: each has its own pilot, spacings and tolerance
         return JobPlan(options=options, source="no line run to plan for (surface runs: their own spacings, and their "
@@ -102,7 +105,7 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     reused: list[str] = []
     for name, members in groups.items():
         previous = kept.get(name)
-        if previous is not None and still_valid(previous, members):
+        if previous is not None and reuse and still_valid(previous, members, options):
             made.append(previous)
             reused += [p.name for p in previous.pilots]
             continue
@@ -135,19 +138,28 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     return plan, pl.concat(studies, how="diagonal_relaxed") if studies else pl.DataFrame()
 
 
-def still_valid(group: KeptGroup, members: list[dict[str, Any]]) -> bool:
-    """Whether a kept pilot still describes its group: every run it read is still one of the group's
-    rows (same id, same file) and its file is unchanged (SHA-256)."""
-    paths = {str(run["run_id"]): str(run["path"]) for run in members}
+def input_digest(run: dict[str, Any], options: ProcessingOptions) -> str:
+    """What a pilot tried of a run: its file's bytes (SHA-256; "missing" when it cannot be opened)
+    with the reader options of its manifest row (a dx, a unit, a drop-out code read it otherwise)."""
+    try:
+        content = file_sha256(run["path"])
+    except OSError:
+        content = "missing"
+    reading = json.dumps(reader_options(run, options), sort_keys=True, default=str)
+    return f"{content}:{hashlib.sha256(reading.encode()).hexdigest()[:16]}"
+
+
+def still_valid(group: KeptGroup, members: list[dict[str, Any]], options: ProcessingOptions) -> bool:
+    """Whether a kept pilot still describes its group: every run it tried (read, or found unreadable)
+    is still one of the group's rows (same id, same file), its file and its row's reader options
+    unchanged (:func:`input_digest`), and the group still holds runs it never tried exactly when it
+    did then (its statements extrapolate to those: ``choose_setting(sampled=...)``)."""
+    rows = {str(run["run_id"]): run for run in members}
     for run_id, (path, digest) in group.inputs.items():
-        if paths.get(run_id) != path:
+        run = rows.get(run_id)
+        if run is None or str(run["path"]) != path or input_digest(run, options) != digest:
             return False
-        try:
-            if file_sha256(path) != digest:
-                return False
-        except OSError:
-            return False
-    return True
+    return (len(group.inputs) < group.members) == (len(group.inputs) < len(members))
 
 
 def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOptions,
@@ -194,14 +206,12 @@ def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOpt
             work_speedup=float(finest_work / chosen_work) if chosen_work and finest_work else float("nan"),
             pilot_seconds=float(choice.pilot_seconds)))
         studies.append(study)
-    inputs = {}
-    for run, _ in read:
-        try:
-            inputs[str(run["run_id"])] = (str(run["path"]), file_sha256(run["path"]))
-        except OSError:
-            pass
+    # every run the pilot tried, read or not: a file mended (or its row's options changed) makes it again
+    tried = [run for run, _ in read] + [run for run in members if str(run["run_id"]) in unread]
+    inputs = {str(run["run_id"]): (str(run["path"]), input_digest(run, options)) for run in tried}
     study = pl.concat(studies, how="diagonal_relaxed") if studies else pl.DataFrame()
-    return KeptGroup(name=name, pilots=tuple(pilots), failed=failed, unread=unread, inputs=inputs, study=study)
+    return KeptGroup(name=name, pilots=tuple(pilots), failed=failed, unread=unread, inputs=inputs, study=study,
+                     members=len(members))
 
 
 def missed_budget(pilot: GroupPilot) -> str:
