@@ -138,6 +138,13 @@ def plan_job(runs: list[dict[str, Any]], options: ProcessingOptions, *, threads:
     return plan, pl.concat(studies, how="diagonal_relaxed") if studies else pl.DataFrame()
 
 
+def has_untried_runs(tried: int, members: int) -> bool:
+    """Whether a group of ``members`` runs holds runs its pilot never tried (it tried ``tried``, read
+    or found unreadable): its statements then extrapolate to them (``choose_setting(sampled=...)``),
+    and a kept pilot stays valid only while that is so (:func:`still_valid`)."""
+    return tried < members
+
+
 def input_digest(run: dict[str, Any], options: ProcessingOptions) -> str:
     """What a pilot tried of a run: its file's bytes (SHA-256; "missing" when it cannot be opened)
     with the reader options of its manifest row (a dx, a unit, a drop-out code read it otherwise)."""
@@ -159,7 +166,7 @@ def still_valid(group: KeptGroup, members: list[dict[str, Any]], options: Proces
         run = rows.get(run_id)
         if run is None or str(run["path"]) != path or input_digest(run, options) != digest:
             return False
-    return (len(group.inputs) < group.members) == (len(group.inputs) < len(members))
+    return has_untried_runs(len(group.inputs), group.members) == has_untried_runs(len(group.inputs), len(members))
 
 
 def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOptions,
@@ -186,7 +193,7 @@ def pilot_group(name: str, members: list[dict[str, Any]], options: ProcessingOpt
                     max_iterations=options.max_iterations, threads=threads, interpolant=options.interpolant,
                     # runs of the group it never tried are spoken for too: their extremes are not in the sample
                     # (the runs it could not read fail on their own; other samplings have their own pilots)
-                    sampled=len(read) + len(unread) < len(members))
+                    sampled=has_untried_runs(len(read) + len(unread), len(members)))
         except Exception as exc:  # noqa: BLE001 - e.g. runs too short for one segment: they fail on their own
             failed[label] = f"{type(exc).__name__}: {exc}"   # recorded (parameters.json) and warned
             continue

@@ -137,11 +137,16 @@ class BandLevels:
 ROUNDING_SHARE = 1e-12
 
 
-def without_rounding(mean_square: np.ndarray, signals: np.ndarray) -> np.ndarray:
+def own_mean_squares(signals: np.ndarray) -> np.ndarray:
+    """Each row's mean square, its mean included (rows,), without a temporary of the rows' size."""
+    return np.einsum("ij,ij->i", signals, signals) / signals.shape[1]
+
+
+def without_rounding(mean_square: np.ndarray, own: np.ndarray) -> np.ndarray:
     """Band mean squares (rows, bands) with those of rounding (:data:`ROUNDING_SHARE` of each row's
-    own mean square, ``signals`` as given) set to 0 (-inf dB); NaN (no line) kept."""
-    floor = ROUNDING_SHARE**2 * np.mean(signals * signals, axis=1, keepdims=True)
-    return np.where(mean_square <= floor, 0.0, mean_square)
+    own mean square ``own``, :func:`own_mean_squares` of the signals as given) set to 0 (-inf dB);
+    NaN (no line) kept."""
+    return np.where(mean_square <= ROUNDING_SHARE**2 * own[:, None], 0.0, mean_square)
 
 
 def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: float | None = None, *, kind: BandKind = "third_octave",
@@ -239,7 +244,7 @@ def band_levels(values: Profile | np.ndarray | Sequence[Sequence[float]], dx: fl
             sums[:, last] = power[:, first_line[last]:end_line[last]].sum(axis=1)
         mean_square[start:start + rows_per_block] = sums
 
-    mean_square = without_rounding(mean_square, signals)
+    mean_square = without_rounding(mean_square, own_mean_squares(signals))
     mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
         levels = 10.0 * np.log10(mean_square / reference**2)
@@ -265,7 +270,7 @@ def _filter_levels(signals: np.ndarray, dx: float, kind: BandKind, reference: fl
         table = _settled_table(table, measured, kind)
     # A band that holds no DFT line of the segment has no level, as with the DFT method: the filter
     # would only return its skirts' share of the neighbouring bands.
-    mean_square = without_rounding(mean_square, signals)
+    mean_square = without_rounding(mean_square, own_mean_squares(signals))
     mean_square[:, table["lines"].to_numpy() == 0] = np.nan
     with np.errstate(divide="ignore"):
         levels = 10.0 * np.log10(mean_square / reference**2)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -67,10 +68,7 @@ def load_numeric_npy(path: Path, name: str) -> np.ndarray:
     shape, dtype = npy_header(path, name)
     if dtype.kind not in "fiu":
         raise ProfileFormatError(f"{name}: .npy must hold numbers, got dtype {dtype}")
-    count = 1
-    for length in shape:
-        count *= int(length)
-    check_points(name, count, f"its .npy header's shape {shape}")
+    check_points(name, math.prod(int(length) for length in shape), f"its .npy header's shape {shape}")
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
